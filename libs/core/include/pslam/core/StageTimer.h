@@ -1,0 +1,43 @@
+#pragma once
+// Per-stage wall-clock timings (extraction, matching, optimization, ...) for run reports and benchmarks.
+#include <chrono>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace pslam {
+
+class StageTimings {
+ public:
+  void add(const std::string& stage, double milliseconds);
+  /// Samples recorded per stage, in insertion order per stage.
+  const std::map<std::string, std::vector<double>>& samples() const { return samples_; }
+  /// {stage: {count, total_ms, mean_ms, median_ms, p90_ms, max_ms}}
+  nlohmann::json summary() const;
+
+ private:
+  std::map<std::string, std::vector<double>> samples_;
+};
+
+/// Percentile (0..100) by linear interpolation between order statistics; NaN for an empty set.
+double percentile(std::vector<double> values, double p);
+
+/// Scoped timer: adds its lifetime to `timings` under `stage`.
+class ScopedStage {
+ public:
+  ScopedStage(StageTimings& timings, std::string stage)
+      : timings_(timings), stage_(std::move(stage)), start_(std::chrono::steady_clock::now()) {}
+  ~ScopedStage() {
+    timings_.add(stage_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
+                             .count());
+  }
+
+ private:
+  StageTimings& timings_;
+  std::string stage_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace pslam

@@ -1,0 +1,41 @@
+#pragma once
+// Stamped camera poses and the TUM trajectory format (`timestamp tx ty tz qx qy qz qw`, camera-to-world),
+// the format of ground truth beside every rawlog and of every trajectory a run writes.
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <mrpt/poses/CPose3D.h>
+
+namespace pslam {
+
+/// One pose of a trajectory: T_world_cam maps camera coordinates to world coordinates.
+struct StampedPose {
+  double timestamp = 0.0;  ///< seconds
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+
+  StampedPose() = default;
+  StampedPose(double t, const Eigen::Isometry3d& T_world_cam);
+  Eigen::Isometry3d T_world_cam() const;
+  mrpt::poses::CPose3D toCPose3D() const;
+  static StampedPose fromCPose3D(double t, const mrpt::poses::CPose3D& T_world_cam);
+};
+
+using Trajectory = std::vector<StampedPose>;
+
+/// Reads a TUM trajectory. Skips blank lines and '#' comments. Throws pslam::Error naming file and line on
+/// a malformed line, a NaN/Inf value, a zero quaternion, or a file that cannot be opened. Quaternions are
+/// normalized. An empty file gives an empty trajectory.
+Trajectory readTumTrajectory(const std::filesystem::path& path);
+
+/// Writes a TUM trajectory atomically (temporary file + rename), timestamps with 6 decimals, poses with 9
+/// significant digits.
+void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory,
+                        const std::string& headerComment = "");
+
+/// Formats one TUM line (no newline).
+std::string formatTumLine(const StampedPose& pose);
+
+}  // namespace pslam

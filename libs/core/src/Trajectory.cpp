@@ -1,0 +1,91 @@
+#include "pslam/core/Trajectory.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+
+namespace pslam {
+
+StampedPose::StampedPose(double t, const Eigen::Isometry3d& T)
+    : timestamp(t), position(T.translation()), orientation(Eigen::Quaterniond(T.linear()).normalized()) {}
+
+Eigen::Isometry3d StampedPose::T_world_cam() const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = orientation.normalized().toRotationMatrix();
+  T.translation() = position;
+  return T;
+}
+
+mrpt::poses::CPose3D StampedPose::toCPose3D() const {
+  const Eigen::Isometry3d T = T_world_cam();
+  mrpt::math::CMatrixDouble44 M;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) M(r, c) = T.matrix()(r, c);
+  return mrpt::poses::CPose3D(M);
+}
+
+StampedPose StampedPose::fromCPose3D(double t, const mrpt::poses::CPose3D& T_world_cam) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const auto M = T_world_cam.getHomogeneousMatrixVal<mrpt::math::CMatrixDouble44>();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = M(r, c);
+  return StampedPose(t, T);
+}
+
+Trajectory readTumTrajectory(const std::filesystem::path& path) {
+  std::ifstream f(path);
+  if (!f) throw Error(path.string() + ": cannot open trajectory file");
+  Trajectory out;
+  std::string line;
+  int lineNo = 0;
+  while (std::getline(f, line)) {
+    ++lineNo;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    for (char& c : line)
+      if (c == ',') c = ' ';
+    std::istringstream ss(line);
+    double v[8];
+    for (double& x : v) {
+      if (!(ss >> x))
+        throw Error(path.string() + ":" + std::to_string(lineNo) +
+                    ": malformed TUM line (expected 'timestamp tx ty tz qx qy qz qw')");
+      if (!std::isfinite(x))
+        throw Error(path.string() + ":" + std::to_string(lineNo) + ": NaN or Inf value");
+    }
+    std::string extra;
+    if (ss >> extra)
+      throw Error(path.string() + ":" + std::to_string(lineNo) + ": more than 8 values on a TUM line");
+    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    if (q.norm() < 1e-6) throw Error(path.string() + ":" + std::to_string(lineNo) + ": zero quaternion");
+    StampedPose p;
+    p.timestamp = v[0];
+    p.position = Eigen::Vector3d(v[1], v[2], v[3]);
+    p.orientation = q.normalized();
+    out.push_back(p);
+  }
+  return out;
+}
+
+std::string formatTumLine(const StampedPose& p) {
+  char buf[256];
+  const Eigen::Quaterniond q = p.orientation.normalized();
+  std::snprintf(buf, sizeof(buf), "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g", p.timestamp, p.position.x(),
+                p.position.y(), p.position.z(), q.x(), q.y(), q.z(), q.w());
+  return buf;
+}
+
+void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory,
+                        const std::string& headerComment) {
+  writeFileAtomically(path, [&](std::ostream& os) {
+    if (!headerComment.empty()) os << "# " << headerComment << "\n";
+    os << "# timestamp tx ty tz qx qy qz qw (camera-to-world)\n";
+    for (const auto& p : trajectory) os << formatTumLine(p) << "\n";
+  });
+}
+
+}  // namespace pslam

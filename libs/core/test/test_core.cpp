@@ -1,0 +1,101 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
+#include "pslam/core/Trajectory.h"
+
+namespace fs = std::filesystem;
+using namespace pslam;
+
+namespace {
+fs::path tempDir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("pslam_test_core_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+}  // namespace
+
+TEST(Trajectory, TumRoundTripIsExactToPrintedPrecision) {
+  const fs::path d = tempDir("roundtrip");
+  Trajectory traj;
+  for (int i = 0; i < 10; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(0.1 * i, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    T.translation() = Eigen::Vector3d(0.5 * i, -1.25 * i, 3.0);
+    traj.emplace_back(1341846313.553 + 0.033 * i, T);
+  }
+  writeTumTrajectory(d / "t.txt", traj, "test");
+  const Trajectory back = readTumTrajectory(d / "t.txt");
+  ASSERT_EQ(back.size(), traj.size());
+  for (std::size_t i = 0; i < traj.size(); ++i) {
+    EXPECT_NEAR(back[i].timestamp, traj[i].timestamp, 1e-6);
+    EXPECT_LT((back[i].position - traj[i].position).norm(), 1e-7);
+    EXPECT_LT(back[i].orientation.angularDistance(traj[i].orientation), 1e-7);
+  }
+}
+
+TEST(Trajectory, MalformedLineNamesFileAndLine) {
+  const fs::path d = tempDir("malformed");
+  {
+    std::ofstream f(d / "bad.txt");
+    f << "# comment\n1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0\n";
+  }
+  try {
+    readTumTrajectory(d / "bad.txt");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.txt:3"), std::string::npos) << e.what();
+  }
+  {
+    std::ofstream f(d / "nan.txt");
+    f << "1.0 nan 0 0 0 0 0 1\n";
+  }
+  EXPECT_THROW(readTumTrajectory(d / "nan.txt"), Error);
+  {
+    std::ofstream f(d / "zeroq.txt");
+    f << "1.0 0 0 0 0 0 0 0\n";
+  }
+  EXPECT_THROW(readTumTrajectory(d / "zeroq.txt"), Error);
+  EXPECT_THROW(readTumTrajectory(d / "missing.txt"), Error);
+}
+
+TEST(Trajectory, CPose3DConversionRoundTrip) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -0.2, 0.9).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(1, 2, 3);
+  const StampedPose p(5.0, T);
+  const StampedPose q = StampedPose::fromCPose3D(5.0, p.toCPose3D());
+  EXPECT_LT((q.T_world_cam().matrix() - T.matrix()).norm(), 1e-12);
+}
+
+TEST(AtomicOutput, UncommittedOutputLeavesNothing) {
+  const fs::path d = tempDir("atomic");
+  {
+    AtomicOutput out(d / "result.txt");
+    std::ofstream(out.tempPath()) << "partial";
+    // destroyed without commit, as when an exception unwinds
+  }
+  EXPECT_TRUE(fs::is_empty(d));
+  EXPECT_THROW(writeFileAtomically(d / "x.txt", [](std::ostream&) { throw Error("boom"); }), Error);
+  EXPECT_TRUE(fs::is_empty(d));
+  writeFileAtomically(d / "sub" / "ok.txt", [](std::ostream& os) { os << "ok"; });
+  EXPECT_TRUE(fs::exists(d / "sub" / "ok.txt"));
+}
+
+TEST(StageTimings, PercentilesAndSummary) {
+  EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4, 5}, 50), 3.0);
+  EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4, 5}, 90), 4.6);
+  EXPECT_TRUE(std::isnan(percentile({}, 50)));
+  StageTimings t;
+  t.add("a", 1.0);
+  t.add("a", 3.0);
+  const auto s = t.summary();
+  EXPECT_EQ(s["a"]["count"].get<int>(), 2);
+  EXPECT_DOUBLE_EQ(s["a"]["median_ms"].get<double>(), 2.0);
+}

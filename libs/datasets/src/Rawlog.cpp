@@ -1,0 +1,330 @@
+#include "pslam/datasets/Rawlog.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <optional>
+
+#include <mrpt/io/CFileGZInputStream.h>
+#include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/io/lazy_load_path.h>
+#include <mrpt/obs/CObservation3DRangeScan.h>
+#include <mrpt/obs/CObservationImage.h>
+#include <mrpt/serialization/CArchive.h>
+#include <mrpt/system/datetime.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "pslam/core/Error.h"
+
+namespace fs = std::filesystem;
+
+namespace pslam::datasets {
+
+namespace {
+
+constexpr double kSameFrameTolerance = 1e-6;  // seconds; channels of one frame share the CAMERA stamp
+
+std::string frameContext(const fs::path& p, std::size_t index) {
+  return p.string() + ": frame " + std::to_string(index);
+}
+
+}  // namespace
+
+void validateFrame(const Frame& f, const std::string& ctx) {
+  require(std::isfinite(f.timestamp), ctx, "timestamp is NaN or Inf");
+  require(!f.image.empty(), ctx, "empty CAMERA image");
+  require(f.image.depth() == CV_8U && (f.image.channels() == 1 || f.image.channels() == 3), ctx,
+          "CAMERA image must be 8-bit grey or 8-bit BGR");
+  const auto& c = f.camera;
+  require(c.ncols == static_cast<uint32_t>(f.image.cols) && c.nrows == static_cast<uint32_t>(f.image.rows), ctx,
+          "intrinsics are for " + std::to_string(c.ncols) + "x" + std::to_string(c.nrows) + " but the image is " +
+              std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows));
+  require(std::isfinite(c.fx()) && std::isfinite(c.fy()) && c.fx() > 0 && c.fy() > 0, ctx,
+          "focal lengths must be positive and finite");
+  require(std::isfinite(c.cx()) && std::isfinite(c.cy()), ctx, "principal point is NaN or Inf");
+  for (double d : c.dist) require(std::isfinite(d), ctx, "distortion coefficient is NaN or Inf");
+  if (!f.depth.empty()) {
+    require(f.depth.type() == CV_16UC1, ctx, "DEPTH must be 16-bit single channel");
+    require(f.depth.size() == f.image.size(), ctx, "DEPTH size differs from the CAMERA image");
+    require(std::isfinite(f.depthUnits) && f.depthUnits > 0, ctx, "depth units must be positive");
+  }
+  if (!f.semantic.empty()) {
+    require(f.semantic.type() == CV_8UC3, ctx, "SEMANTIC must be 8-bit 3-channel");
+    require(f.semantic.size() == f.image.size(), ctx, "SEMANTIC size differs from the CAMERA image");
+  }
+  if (!f.normals.empty()) {
+    require(f.normals.type() == CV_8UC3, ctx, "NORMALS must be 8-bit 3-channel");
+    require(f.normals.size() == f.image.size(), ctx, "NORMALS size differs from the CAMERA image");
+  }
+}
+
+cv::Vec3b encodeNormal(const cv::Vec3d& n) {
+  cv::Vec3b px;
+  for (int k = 0; k < 3; ++k) {
+    const double v = std::round((std::clamp(n[k], -1.0, 1.0) + 1.0) * 0.5 * 255.0);
+    px[k] = static_cast<uchar>(v);
+  }
+  if (px == cv::Vec3b(0, 0, 0)) px[2] = 1;  // (-1,-1,-1)/sqrt3 never occurs as unit normal; keep 0 reserved
+  return px;
+}
+
+bool decodeNormal(const cv::Vec3b& px, cv::Vec3d& n) {
+  if (px[0] == 0 && px[1] == 0 && px[2] == 0) return false;
+  for (int k = 0; k < 3; ++k) n[k] = px[k] / 255.0 * 2.0 - 1.0;
+  const double norm = cv::norm(n);
+  if (norm < 1e-6) return false;
+  n /= norm;
+  return true;
+}
+
+// ------------------------------------------------------------------------------------------------ writer
+struct RawlogWriter::Impl {
+  fs::path rawlogPath;
+  std::string ext;
+  std::optional<AtomicOutput> rawlogOut;
+  std::optional<AtomicOutput> imagesOut;
+  mrpt::io::CFileGZOutputStream stream;
+  std::optional<cv::Size> size;
+  bool open = false;
+};
+
+fs::path RawlogWriter::imagesDirFor(const fs::path& rawlogPath) {
+  return rawlogPath.parent_path() / (rawlogPath.stem().string() + "_Images");
+}
+
+RawlogWriter::RawlogWriter(fs::path rawlogPath, std::string imageExtension) : impl_(std::make_unique<Impl>()) {
+  auto& d = *impl_;
+  d.rawlogPath = std::move(rawlogPath);
+  d.ext = std::move(imageExtension);
+  if (!d.ext.empty() && d.ext[0] == '.') d.ext.erase(0, 1);
+  require(d.ext == "png" || d.ext == "bmp" || d.ext == "tiff" || d.ext == "ppm" || d.ext == "pgm",
+          d.rawlogPath.string(), "image format '" + d.ext + "' is not lossless (use png, bmp, tiff, ppm or pgm)");
+  d.rawlogOut.emplace(d.rawlogPath);
+  d.imagesOut.emplace(imagesDirFor(d.rawlogPath));
+  std::error_code ec;
+  fs::create_directories(d.imagesOut->tempPath(), ec);
+  if (ec) throw Error(d.imagesOut->finalPath().string() + ": cannot create images folder (" + ec.message() + ")");
+  if (!d.stream.open(d.rawlogOut->tempPath().string(), 1))
+    throw Error(d.rawlogPath.string() + ": cannot open for writing");
+  d.open = true;
+}
+
+RawlogWriter::~RawlogWriter() {
+  if (impl_ && impl_->open) impl_->stream.close();
+}
+
+void RawlogWriter::write(const Frame& f) {
+  auto& d = *impl_;
+  require(d.open, d.rawlogPath.string(), "write after commit");
+  const std::string ctx = d.rawlogPath.string() + ": frame " + std::to_string(frames_);
+  validateFrame(f, ctx);
+  if (!d.size) d.size = f.image.size();
+  require(*d.size == f.image.size(), ctx,
+          "image size " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
+              " differs from the first frame's " + std::to_string(d.size->width) + "x" +
+              std::to_string(d.size->height));
+
+  const auto stamp = mrpt::Clock::fromDouble(f.timestamp);
+  auto arch = mrpt::serialization::archiveFrom(d.stream);
+  char name[64];
+
+  auto writeImage = [&](const cv::Mat& m, const char* label) {
+    std::snprintf(name, sizeof(name), "%s_%06zu.%s", label, frames_, d.ext.c_str());
+    const fs::path file = d.imagesOut->tempPath() / name;
+    if (!cv::imwrite(file.string(), m)) throw Error(ctx + ": cannot write image " + file.string());
+    auto obs = mrpt::obs::CObservationImage::Create();
+    obs->sensorLabel = label;
+    obs->timestamp = stamp;
+    obs->cameraParams = f.camera;
+    obs->cameraPose = f.sensorPoseOnBody;
+    obs->image.setExternalStorage(name);
+    arch << *obs;
+  };
+
+  writeImage(f.image, kCameraLabel);
+  if (f.hasDepth()) {
+    auto obs = mrpt::obs::CObservation3DRangeScan::Create();
+    obs->sensorLabel = kDepthLabel;
+    obs->timestamp = stamp;
+    obs->hasRangeImage = true;
+    obs->range_is_depth = true;
+    obs->rangeUnits = static_cast<float>(f.depthUnits);
+    obs->rangeImage_setSize(f.depth.rows, f.depth.cols);
+    for (int r = 0; r < f.depth.rows; ++r) {
+      const auto* row = f.depth.ptr<uint16_t>(r);
+      for (int c = 0; c < f.depth.cols; ++c) obs->rangeImage(r, c) = row[c];
+    }
+    obs->cameraParams = f.camera;
+    obs->cameraParamsIntensity = f.camera;
+    obs->sensorPose = f.sensorPoseOnBody;
+    obs->maxRange = static_cast<float>(65535 * f.depthUnits);
+    arch << *obs;
+  }
+  if (f.hasSemantic()) writeImage(f.semantic, kSemanticLabel);
+  if (f.hasNormals()) writeImage(f.normals, kNormalsLabel);
+  ++frames_;
+}
+
+void RawlogWriter::commit() {
+  auto& d = *impl_;
+  require(d.open, d.rawlogPath.string(), "commit called twice");
+  d.stream.close();
+  d.open = false;
+  d.imagesOut->commit();
+  d.rawlogOut->commit();
+}
+
+// ------------------------------------------------------------------------------------------------ reader
+struct RawlogReader::Impl {
+  fs::path path;
+  fs::path imagesDir;
+  mrpt::io::CFileGZInputStream stream;
+  mrpt::serialization::CSerializable::Ptr pending;  // the next object, already read (look-ahead)
+  bool eof = false;
+  std::size_t frameIndex = 0;
+  std::size_t objectIndex = 0;
+  std::optional<cv::Size> size;
+
+  mrpt::serialization::CSerializable::Ptr readObject() {
+    if (pending) return std::exchange(pending, nullptr);
+    if (eof) return nullptr;
+    try {
+      auto arch = mrpt::serialization::archiveFrom(stream);
+      auto obj = arch.ReadObject();
+      ++objectIndex;
+      return obj;
+    } catch (const mrpt::serialization::CExceptionEOF&) {
+      eof = true;
+      return nullptr;
+    } catch (const std::exception& e) {
+      throw Error(path.string() + ": corrupt rawlog after object " + std::to_string(objectIndex) + " (frame " +
+                  std::to_string(frameIndex) + "): " + firstLine(e.what()));
+    }
+  }
+  static std::string firstLine(const std::string& s) {
+    const auto p = s.find('\n');
+    return p == std::string::npos ? s : s.substr(0, p);
+  }
+};
+
+RawlogReader::RawlogReader(fs::path rawlogPath) : impl_(std::make_unique<Impl>()) {
+  auto& d = *impl_;
+  d.path = std::move(rawlogPath);
+  std::error_code ec;
+  if (!fs::is_regular_file(d.path, ec)) throw Error(d.path.string() + ": rawlog file not found");
+  if (!d.stream.open(d.path.string())) throw Error(d.path.string() + ": cannot open rawlog");
+  d.imagesDir = RawlogWriter::imagesDirFor(d.path);
+}
+
+RawlogReader::~RawlogReader() = default;
+
+const fs::path& RawlogReader::path() const { return impl_->path; }
+const fs::path& RawlogReader::imagesDir() const { return impl_->imagesDir; }
+
+namespace {
+
+cv::Mat loadImage(const mrpt::img::CImage& img, const fs::path& imagesDir, const std::string& ctx) {
+  if (img.isExternallyStored()) {
+    const fs::path file = imagesDir / img.getExternalStorageFile();
+    cv::Mat m = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    if (m.empty()) throw Error(ctx + ": cannot read image file " + file.string());
+    return m;
+  }
+  return img.asCvMat<cv::Mat>(mrpt::img::DEEP_COPY);
+}
+
+}  // namespace
+
+bool RawlogReader::next(Frame& f) {
+  auto& d = *impl_;
+  mrpt::obs::CObservationImage::Ptr cam;
+  // Skip objects that are not observations of the contract until a CAMERA appears.
+  while (!cam) {
+    auto obj = d.readObject();
+    if (!obj) return false;
+    auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
+    if (!obs) {
+      throw Error(d.path.string() + ": object " + std::to_string(d.objectIndex) + " is a " +
+                  obj->GetRuntimeClass()->className +
+                  ", not an observation (only observation-only rawlogs are supported)");
+    }
+    if (obs->sensorLabel == kCameraLabel) {
+      cam = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
+      if (!cam) throw Error(frameContext(d.path, d.frameIndex) + ": CAMERA observation is not a CObservationImage");
+    } else if (obs->sensorLabel == kDepthLabel || obs->sensorLabel == kSemanticLabel ||
+               obs->sensorLabel == kNormalsLabel) {
+      throw Error(frameContext(d.path, d.frameIndex) + ": " + obs->sensorLabel +
+                  " observation without a preceding CAMERA observation of the same timestamp");
+    }
+  }
+  const std::string ctx = frameContext(d.path, d.frameIndex);
+  f = Frame{};
+  f.index = d.frameIndex;
+  f.timestamp = mrpt::Clock::toDouble(cam->timestamp);
+  f.camera = cam->cameraParams;
+  f.sensorPoseOnBody = cam->cameraPose;
+  f.image = loadImage(cam->image, d.imagesDir, ctx + " CAMERA");
+
+  // Attach the channels that share the CAMERA timestamp.
+  for (;;) {
+    auto obj = d.readObject();
+    if (!obj) break;
+    auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
+    if (!obs || obs->sensorLabel == kCameraLabel ||
+        std::abs(mrpt::Clock::toDouble(obs->timestamp) - f.timestamp) > kSameFrameTolerance) {
+      d.pending = obj;
+      break;
+    }
+    if (obs->sensorLabel == kDepthLabel) {
+      auto depth = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs);
+      if (!depth || !depth->hasRangeImage) throw Error(ctx + ": DEPTH observation has no range image");
+      if (!depth->range_is_depth) throw Error(ctx + ": DEPTH must hold depth (range_is_depth=true)");
+      depth->load();
+      const auto& R = depth->rangeImage;
+      f.depth.create(static_cast<int>(R.rows()), static_cast<int>(R.cols()), CV_16UC1);
+      for (int r = 0; r < f.depth.rows; ++r) {
+        auto* row = f.depth.ptr<uint16_t>(r);
+        for (int c = 0; c < f.depth.cols; ++c) row[c] = R(r, c);
+      }
+      f.depthUnits = depth->rangeUnits;
+    } else if (obs->sensorLabel == kSemanticLabel || obs->sensorLabel == kNormalsLabel) {
+      auto img = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
+      if (!img) throw Error(ctx + ": " + obs->sensorLabel + " observation is not a CObservationImage");
+      cv::Mat m = loadImage(img->image, d.imagesDir, ctx + " " + obs->sensorLabel);
+      (obs->sensorLabel == kSemanticLabel ? f.semantic : f.normals) = m;
+    }
+    // Other labels (IMU, GPS, ...) are ignored by this contract.
+  }
+
+  validateFrame(f, ctx);
+  if (!d.size) d.size = f.image.size();
+  require(*d.size == f.image.size(), ctx,
+          "image size " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
+              " differs from the first frame's " + std::to_string(d.size->width) + "x" +
+              std::to_string(d.size->height));
+  ++d.frameIndex;
+  return true;
+}
+
+std::size_t RawlogReader::countFrames(const fs::path& rawlogPath) {
+  mrpt::io::CFileGZInputStream s;
+  std::error_code ec;
+  if (!fs::is_regular_file(rawlogPath, ec) || !s.open(rawlogPath.string()))
+    throw Error(rawlogPath.string() + ": rawlog file not found");
+  std::size_t n = 0;
+  auto arch = mrpt::serialization::archiveFrom(s);
+  for (;;) {
+    try {
+      auto obj = arch.ReadObject();
+      auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
+      if (obs && obs->sensorLabel == kCameraLabel) ++n;
+    } catch (const mrpt::serialization::CExceptionEOF&) {
+      break;
+    } catch (const std::exception& e) {
+      throw Error(rawlogPath.string() + ": corrupt rawlog after " + std::to_string(n) + " frames");
+    }
+  }
+  return n;
+}
+
+}  // namespace pslam::datasets

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package the project needs. Safe to run twice.
+set -euo pipefail
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+PKGS=(
+  build-essential cmake pkg-config git ca-certificates
+  libeigen3-dev
+  libmrpt-dev mrpt-apps
+  libopencv-dev libopencv-contrib-dev
+  libceres-dev libsuitesparse-dev
+  libgtest-dev libgmock-dev googletest libbenchmark-dev
+  nlohmann-json3-dev libcli11-dev
+)
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${PKGS[@]}"
+echo "install-deps: all packages present"
