@@ -1,0 +1,30 @@
+// bench-features: per-stage timings of the ORB extractor vs cv::ORB on an image or a folder of images.
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "pslam/features/BenchFeatures.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"Per-stage timings (median, p90) of the ORB-SLAM style extractor vs cv::ORB"};
+  pslam::features::BenchFeaturesOptions o;
+  std::string input, json;
+  app.add_option("input", input, "image file or folder of images")->required();
+  app.add_option("--runs", o.runs, "timed runs per image")->capture_default_str();
+  app.add_option("--max-images", o.maxImages, "images taken from a folder (sorted by name)")->capture_default_str();
+  app.add_option("--features", o.orb.nFeatures, "target number of features")->capture_default_str();
+  app.add_option("--levels", o.orb.nLevels, "pyramid levels")->capture_default_str();
+  app.add_option("--scale-factor", o.orb.scaleFactor, "pyramid scale factor")->capture_default_str();
+  app.add_flag("--no-opencv", [&o](int64_t) { o.compareOpenCv = false; }, "do not time cv::ORB");
+  app.add_option("--json", json, "also write the summary to this JSON file");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    o.input = input;
+    o.jsonOutput = json;
+    pslam::features::BenchFeaturesApp(o).run(std::cout);
+  } catch (const std::exception& e) {
+    std::cerr << "bench-features: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,67 @@
+#pragma once
+// Binary descriptor matching (thesis eq. 2.18): Hamming distance, ORB-SLAM's two-view initialization search
+// (SearchForInitialization) and a global brute-force ratio matcher for relocalization.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "pslam/features/FeatureGrid.h"
+
+namespace pslam::features {
+
+/// Hamming distance of two 256-bit (32-byte) ORB descriptors: popcount of their XOR (eq. 2.18).
+int hammingDistance256(const uint8_t* a, const uint8_t* b);
+/// Hamming distance between row `ia` of `a` and row `ib` of `b` (CV_8UC1, 32 columns).
+int hammingDistance(const cv::Mat& a, int ia, const cv::Mat& b, int ib);
+
+/// One correspondence: descriptor/keypoint index in the first (query) and the second (train) set.
+struct IndexMatch {
+  int i1 = -1;
+  int i2 = -1;
+  int distance = 0;  ///< Hamming distance
+  bool operator==(const IndexMatch& o) const { return i1 == o.i1 && i2 == o.i2 && distance == o.distance; }
+};
+
+/// ORB-SLAM's matcher constants.
+constexpr int kOrbThLow = 50;    ///< TH_LOW: strict acceptance (initialization, fusion)
+constexpr int kOrbThHigh = 100;  ///< TH_HIGH: loose acceptance (tracking, relocalization)
+
+struct InitMatchParams {
+  float nnRatio = 0.9f;          ///< accept only if best < nnRatio * second best
+  int maxDistance = kOrbThLow;   ///< accept only if best <= maxDistance
+  float windowHalfSize = 100.f;  ///< square search window around the previous matched position (px)
+  int maxOctave1 = 0;            ///< frame-1 keypoints above this octave are skipped (ORB-SLAM: only level 0)
+  bool checkOrientation = true;  ///< rotation-histogram consistency
+  int histogramBins = 30;        ///< bins over 360 deg of angle differences; the 3 largest bins are kept
+  void check() const;
+};
+
+/// ORB-SLAM's SearchForInitialization between a reference frame (1) and the current frame (2).
+/// For every frame-1 keypoint of octave <= maxOctave1, candidates are frame-2 keypoints of the SAME octave in a
+/// window of half size windowHalfSize around prevMatched[i1] (found via grid2, built over kps2). The best
+/// candidate must pass maxDistance and the nnRatio test; a frame-2 keypoint keeps only its best frame-1 match.
+/// With checkOrientation, matches whose angle difference falls outside the three most populated histogram bins
+/// (bins 2/3 dropped when below 10 % of the largest) are removed. On return prevMatched[i1] holds the position
+/// of the new match of i1 (unchanged where none). Returns the matches sorted by i1.
+std::vector<IndexMatch> matchForInitialization(const std::vector<cv::KeyPoint>& kps1, const cv::Mat& desc1,
+                                               const std::vector<cv::KeyPoint>& kps2, const cv::Mat& desc2,
+                                               const FeatureGrid& grid2, std::vector<cv::Point2f>& prevMatched,
+                                               const InitMatchParams& params = {});
+
+/// Indices of the (up to) three largest bins of `histogram` by count (ties: lower index), -1 where none;
+/// the second/third are dropped (-1) when below 10 % of the largest, as ORB-SLAM's ComputeThreeMaxima.
+void threeLargestBins(const std::vector<std::vector<int>>& histogram, int& first, int& second, int& third);
+
+struct BruteForceParams {
+  float ratio = 0.8f;             ///< Lowe ratio best < ratio * second best; >= 1 disables the test
+  int maxDistance = kOrbThHigh;   ///< accept only if best <= maxDistance
+  bool crossCheck = false;        ///< also require that query i1 is the best match of train i2
+  void check() const;
+};
+
+/// Global matching of every query descriptor against all train descriptors (relocalization). Uses OpenCV's
+/// BFMatcher (NORM_HAMMING). Returns matches sorted by i1. Throws pslam::Error on non-ORB descriptor matrices.
+std::vector<IndexMatch> matchBruteForce(const cv::Mat& query, const cv::Mat& train, const BruteForceParams& params = {});
+
+}  // namespace pslam::features

@@ -1,0 +1,98 @@
+#pragma once
+// ORB features as extracted by ORB-SLAM (thesis §2.3.2.1, Table 3.2): a scale pyramid, FAST corners found per
+// ~30 px grid cell with an initial threshold and a lower fallback threshold, a quadtree that spreads the
+// corners evenly over each level (keeping the strongest corner per node), the intensity-centroid orientation
+// (eqs. 2.13-2.14) and the 256-bit steered BRIEF descriptor (eq. 2.15) on the Gaussian-blurred level image.
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+namespace mrpt::config {
+class CConfigFileBase;
+}
+
+namespace pslam::features {
+
+/// Extractor parameters. Defaults are ORB-SLAM's (and Table 3.2 apart from N_F, which the thesis raises to 5000).
+struct OrbParams {
+  int nFeatures = 2000;      ///< target number of keypoints over all levels (N_F^Descr)
+  double scaleFactor = 1.2;  ///< scale between consecutive pyramid levels (s_L^Descr)
+  int nLevels = 8;           ///< number of pyramid levels (N_L^Descr)
+  int iniThFAST = 20;        ///< FAST threshold tried first in every cell (tau_init^Descr)
+  int minThFAST = 7;         ///< FAST threshold used in a cell where the initial one finds nothing (tau_min^Descr)
+  int edgeThreshold = 19;    ///< border (px) padded around each level; keypoints keep edgeThreshold-3 px from the edge
+  int patchSize = 31;        ///< orientation/descriptor patch; the learned rBRIEF pattern exists for 31 only
+  int cellSize = 30;         ///< FAST grid cell size in level pixels (ORB-SLAM's W)
+  /// Per-level budget: false = ORB-SLAM's geometric series with ratio 1/scaleFactor; true = ratio
+  /// 1/scaleFactor^2 (strictly proportional to the level area).
+  bool levelBudgetByArea = false;
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  /// Throws pslam::Error naming the offending key.
+  void check() const;
+};
+
+/// Wall-clock milliseconds of the stages of one extract() call.
+struct OrbStageTimes {
+  double pyramidMs = 0;      ///< building the padded scale pyramid
+  double detectMs = 0;       ///< per-cell FAST + quadtree distribution
+  double orientationMs = 0;  ///< intensity-centroid angles
+  double descriptorMs = 0;   ///< Gaussian blur + steered BRIEF
+  double totalMs() const { return pyramidMs + detectMs + orientationMs + descriptorMs; }
+};
+
+class OrbExtractor {
+ public:
+  explicit OrbExtractor(const OrbParams& params = OrbParams());
+
+  /// Extracts keypoints and descriptors from a grey (CV_8UC1) or colour (CV_8UC3 BGR / CV_8UC4 BGRA) image.
+  /// Keypoints are in level-0 pixel coordinates, grouped by level (level 0 first); `octave` = pyramid level,
+  /// `angle` in degrees [0,360) in image axes (x right, y down), `size` = patchSize * scaleFactor(level),
+  /// `response` = FAST score. descriptors: CV_8UC1, N x 32, row i belongs to keypoint i.
+  /// Deterministic: the same image always gives the same output. Throws pslam::Error on empty or
+  /// unsupported images. Not thread-safe (reuses its pyramid buffers); use one extractor per thread.
+  void extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
+               OrbStageTimes* times = nullptr);
+
+  const OrbParams& params() const { return params_; }
+  int levels() const { return params_.nLevels; }
+  /// scale of level l relative to level 0 (scaleFactor^l); level-0 coordinates = level coordinates * scale.
+  const std::vector<float>& scaleFactors() const { return scale_; }
+  const std::vector<float>& inverseScaleFactors() const { return invScale_; }
+  /// Measurement variance factor per level, sigma^2 = scale^2 (used to weight reprojection errors).
+  const std::vector<float>& levelSigma2() const { return sigma2_; }
+  const std::vector<float>& inverseLevelSigma2() const { return invSigma2_; }
+  /// Target number of keypoints per level (sums to nFeatures).
+  const std::vector<int>& featuresPerLevel() const { return featuresPerLevel_; }
+  /// Level images of the last extract() call (views into padded buffers, so each has an edgeThreshold
+  /// border of reflected pixels available around it). Size of level l = round(size0 / scale_l).
+  const std::vector<cv::Mat>& pyramid() const { return pyramid_; }
+
+  /// ORB-SLAM's quadtree distribution (exposed for tests): keeps at most ~`target` keypoints spread over the
+  /// rectangle [minX,maxX) x [minY,maxY), one per quadtree leaf, the one with the largest response. Keypoint
+  /// coordinates must be relative to (minX, minY). Ties are broken by position, so the result is deterministic.
+  static std::vector<cv::KeyPoint> distributeQuadtree(const std::vector<cv::KeyPoint>& keypoints, int minX,
+                                                      int maxX, int minY, int maxY, int target);
+
+  /// Intensity-centroid orientation (eqs. 2.13-2.14) in degrees [0,360) of the circular patch of radius
+  /// patchSize/2 centred at integer pixel `pt` of `image` (CV_8UC1); the patch must lie inside the image
+  /// memory (pyramid levels have a border for this).
+  float intensityCentroidAngle(const cv::Mat& image, cv::Point2f pt) const;
+
+ private:
+  void buildPyramid(const cv::Mat& grey);
+  void detectLevel(int level, std::vector<cv::KeyPoint>& out) const;
+
+  OrbParams params_;
+  std::vector<float> scale_, invScale_, sigma2_, invSigma2_;
+  std::vector<int> featuresPerLevel_;
+  std::vector<int> umax_;  ///< half-width of the circular patch per row offset v (ORB-SLAM's umax)
+  std::vector<cv::Mat> padded_;
+  std::vector<cv::Mat> pyramid_;
+  cv::Ptr<cv::ORB> describer_;  ///< OpenCV's steered-BRIEF code, fed our keypoints and angles
+};
+
+}  // namespace pslam::features

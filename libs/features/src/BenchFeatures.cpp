@@ -1,0 +1,124 @@
+#include "pslam/features/BenchFeatures.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <ostream>
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+
+namespace pslam::features {
+namespace fs = std::filesystem;
+
+void BenchFeaturesOptions::check() const {
+  require(runs >= 1, "bench-features", "--runs must be >= 1");
+  require(maxImages >= 1, "bench-features", "--max-images must be >= 1");
+  orb.check();
+}
+
+BenchFeaturesApp::BenchFeaturesApp(BenchFeaturesOptions options) : options_(std::move(options)) { options_.check(); }
+
+std::vector<fs::path> BenchFeaturesApp::listImages(const fs::path& input, int maxImages) {
+  require(fs::exists(input), input.string(), "no such file or folder");
+  if (!fs::is_directory(input)) return {input};
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(input)) {
+    if (!e.is_regular_file()) continue;
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".pgm" || ext == ".ppm")
+      files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  require(!files.empty(), input.string(), "folder contains no image files");
+  if (static_cast<int>(files.size()) > maxImages) files.resize(maxImages);
+  return files;
+}
+
+nlohmann::json BenchFeaturesResult::toJson(const BenchFeaturesOptions& o) const {
+  nlohmann::json j;
+  j["input"] = o.input.string();
+  j["images"] = images;
+  j["runs_per_image"] = o.runs;
+  j["nFeatures"] = o.orb.nFeatures;
+  j["nLevels"] = o.orb.nLevels;
+  j["scaleFactor"] = o.orb.scaleFactor;
+  j["mean_keypoints"] = meanKeypoints;
+  j["mean_keypoints_opencv"] = meanKeypointsOpenCv;
+  j["timings_ms"] = timings.summary();
+  return j;
+}
+
+BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
+  const auto files = listImages(options_.input, options_.maxImages);
+  OrbExtractor extractor(options_.orb);
+  const OrbParams& p = options_.orb;
+  // cv::ORB with the same budget and pyramid; its own (non-quadtree) selection and Harris ranking.
+  cv::Ptr<cv::ORB> cvOrb = cv::ORB::create(p.nFeatures, static_cast<float>(p.scaleFactor), p.nLevels,
+                                           p.edgeThreshold, 0, 2, cv::ORB::HARRIS_SCORE, p.patchSize, p.iniThFAST);
+  BenchFeaturesResult result;
+  size_t nOurs = 0, nCv = 0, nTimed = 0;
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc;
+  for (const fs::path& f : files) {
+    const cv::Mat img = cv::imread(f.string(), cv::IMREAD_GRAYSCALE);
+    require(!img.empty(), f.string(), "cannot read image (missing, unreadable or not an image)");
+    result.images.push_back(f.string());
+    for (int r = 0; r <= options_.runs; ++r) {  // r == 0: warm-up (caches, allocations), not timed
+      OrbStageTimes t;
+      extractor.extract(img, kps, desc, &t);
+      if (options_.compareOpenCv) {
+        std::vector<cv::KeyPoint> cvKps;
+        cv::Mat cvDesc;
+        const auto start = std::chrono::steady_clock::now();
+        cvOrb->detectAndCompute(img, cv::noArray(), cvKps, cvDesc);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        if (r > 0) {
+          result.timings.add("opencv_orb", ms);
+          nCv += cvKps.size();
+        }
+      }
+      if (r == 0) continue;
+      result.timings.add("pyramid", t.pyramidMs);
+      result.timings.add("fast+quadtree", t.detectMs);
+      result.timings.add("orientation", t.orientationMs);
+      result.timings.add("descriptors", t.descriptorMs);
+      result.timings.add("total", t.totalMs());
+      nOurs += kps.size();
+      ++nTimed;
+    }
+  }
+  result.meanKeypoints = nTimed ? double(nOurs) / nTimed : 0;
+  result.meanKeypointsOpenCv = nTimed ? double(nCv) / nTimed : 0;
+
+  const cv::Mat first = cv::imread(files.front().string(), cv::IMREAD_GRAYSCALE);
+  char line[256];
+  out << "bench-features: " << files.size() << " image(s) from " << options_.input.string() << " ("
+      << first.cols << "x" << first.rows << " first), " << options_.runs << " runs each, nFeatures "
+      << p.nFeatures << "\n";
+  std::snprintf(line, sizeof line, "%-16s %10s %10s\n", "stage", "median_ms", "p90_ms");
+  out << line;
+  for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "total", "opencv_orb"}) {
+    const auto it = result.timings.samples().find(stage);
+    if (it == result.timings.samples().end()) continue;
+    std::snprintf(line, sizeof line, "%-16s %10.2f %10.2f\n", stage, percentile(it->second, 50),
+                  percentile(it->second, 90));
+    out << line;
+  }
+  std::snprintf(line, sizeof line, "keypoints: OrbExtractor %.1f, cv::ORB %.1f (mean per image)\n",
+                result.meanKeypoints, result.meanKeypointsOpenCv);
+  out << line;
+
+  if (!options_.jsonOutput.empty()) {
+    ensureParentDirectory(options_.jsonOutput);
+    const nlohmann::json j = result.toJson(options_);
+    writeFileAtomically(options_.jsonOutput, [&](std::ostream& os) { os << j.dump(2) << "\n"; });
+  }
+  return result;
+}
+
+}  // namespace pslam::features

@@ -1,0 +1,182 @@
+#include "pslam/features/Matching.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstring>
+
+#include <opencv2/features2d.hpp>
+
+#include "pslam/core/Error.h"
+
+namespace pslam::features {
+namespace {
+
+void requireOrbDescriptors(const cv::Mat& d, const char* ctx, const char* name) {
+  if (d.empty()) return;
+  require(d.type() == CV_8UC1 && d.cols == 32, ctx,
+          std::string(name) + " must be CV_8UC1 with 32 columns (got type " + std::to_string(d.type()) + ", " +
+              std::to_string(d.cols) + " columns)");
+}
+
+}  // namespace
+
+int hammingDistance256(const uint8_t* a, const uint8_t* b) {
+  int dist = 0;
+  for (int k = 0; k < 4; ++k) {
+    uint64_t wa, wb;  // memcpy: descriptor rows need not be 8-byte aligned
+    std::memcpy(&wa, a + 8 * k, 8);
+    std::memcpy(&wb, b + 8 * k, 8);
+    dist += __builtin_popcountll(wa ^ wb);
+  }
+  return dist;
+}
+
+int hammingDistance(const cv::Mat& a, int ia, const cv::Mat& b, int ib) {
+  return hammingDistance256(a.ptr<uint8_t>(ia), b.ptr<uint8_t>(ib));
+}
+
+void InitMatchParams::check() const {
+  const std::string ctx = "InitMatchParams";
+  require(nnRatio > 0 && nnRatio <= 1, ctx, "nnRatio must be in (0, 1]");
+  require(maxDistance >= 0 && maxDistance <= 256, ctx, "maxDistance must be in [0, 256]");
+  require(windowHalfSize > 0, ctx, "windowHalfSize must be > 0");
+  require(histogramBins >= 3, ctx, "histogramBins must be >= 3");
+}
+
+void BruteForceParams::check() const {
+  const std::string ctx = "BruteForceParams";
+  require(ratio > 0, ctx, "ratio must be > 0");
+  require(maxDistance >= 0 && maxDistance <= 256, ctx, "maxDistance must be in [0, 256]");
+}
+
+void threeLargestBins(const std::vector<std::vector<int>>& histogram, int& first, int& second, int& third) {
+  size_t m1 = 0, m2 = 0, m3 = 0;
+  first = second = third = -1;
+  for (int i = 0; i < static_cast<int>(histogram.size()); ++i) {
+    const size_t s = histogram[i].size();
+    if (s == 0) continue;
+    if (s > m1) {
+      m3 = m2; third = second;
+      m2 = m1; second = first;
+      m1 = s; first = i;
+    } else if (s > m2) {
+      m3 = m2; third = second;
+      m2 = s; second = i;
+    } else if (s > m3) {
+      m3 = s; third = i;
+    }
+  }
+  // Secondary modes only count when they are substantial.
+  if (m2 < 0.1 * m1) {
+    second = third = -1;
+  } else if (m3 < 0.1 * m1) {
+    third = -1;
+  }
+}
+
+std::vector<IndexMatch> matchForInitialization(const std::vector<cv::KeyPoint>& kps1, const cv::Mat& desc1,
+                                               const std::vector<cv::KeyPoint>& kps2, const cv::Mat& desc2,
+                                               const FeatureGrid& grid2, std::vector<cv::Point2f>& prevMatched,
+                                               const InitMatchParams& params) {
+  const char* ctx = "matchForInitialization";
+  params.check();
+  requireOrbDescriptors(desc1, ctx, "desc1");
+  requireOrbDescriptors(desc2, ctx, "desc2");
+  require(desc1.rows == static_cast<int>(kps1.size()), ctx, "desc1 rows differ from kps1 size");
+  require(desc2.rows == static_cast<int>(kps2.size()), ctx, "desc2 rows differ from kps2 size");
+  require(grid2.size() == kps2.size(), ctx, "grid2 does not index kps2");
+  require(prevMatched.size() == kps1.size(), ctx, "prevMatched must have one position per kps1 keypoint");
+
+  const int n1 = static_cast<int>(kps1.size()), n2 = static_cast<int>(kps2.size());
+  std::vector<int> match12(n1, -1), match21(n2, -1), dist12(n1, INT_MAX), bestDist21(n2, INT_MAX);
+  const int bins = params.histogramBins;
+  std::vector<std::vector<int>> rotHist(bins);
+  const float binPerDeg = bins / 360.f;
+
+  for (int i1 = 0; i1 < n1; ++i1) {
+    const int octave = kps1[i1].octave;
+    if (octave > params.maxOctave1) continue;
+    const auto candidates = grid2.featuresInWindow(prevMatched[i1].x, prevMatched[i1].y, params.windowHalfSize,
+                                                   OctaveRange::only(octave));
+    int best = INT_MAX, second = INT_MAX, bestI2 = -1;
+    const uint8_t* d1 = desc1.ptr<uint8_t>(i1);
+    for (size_t c : candidates) {
+      const int i2 = static_cast<int>(c);
+      const int d = hammingDistance256(d1, desc2.ptr<uint8_t>(i2));
+      if (bestDist21[i2] <= d) continue;  // i2 already has an at least as good frame-1 partner
+      if (d < best) {
+        second = best;
+        best = d;
+        bestI2 = i2;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    if (bestI2 < 0 || best > params.maxDistance) continue;
+    if (!(static_cast<float>(best) < params.nnRatio * static_cast<float>(second))) continue;
+    if (match21[bestI2] >= 0) match12[match21[bestI2]] = -1;  // i2 switches to the better i1
+    match12[i1] = bestI2;
+    match21[bestI2] = i1;
+    bestDist21[bestI2] = best;
+    dist12[i1] = best;
+    if (params.checkOrientation) {
+      float rot = kps1[i1].angle - kps2[bestI2].angle;
+      if (rot < 0) rot += 360.f;
+      int bin = static_cast<int>(std::lround(rot * binPerDeg));
+      if (bin >= bins) bin = 0;
+      rotHist[bin].push_back(i1);
+    }
+  }
+
+  if (params.checkOrientation) {
+    int b1, b2, b3;
+    threeLargestBins(rotHist, b1, b2, b3);
+    for (int b = 0; b < bins; ++b) {
+      if (b == b1 || b == b2 || b == b3) continue;
+      for (int i1 : rotHist[b]) match12[i1] = -1;
+    }
+  }
+
+  std::vector<IndexMatch> matches;
+  for (int i1 = 0; i1 < n1; ++i1) {
+    if (match12[i1] < 0) continue;
+    matches.push_back({i1, match12[i1], dist12[i1]});
+    prevMatched[i1] = kps2[match12[i1]].pt;
+  }
+  return matches;
+}
+
+std::vector<IndexMatch> matchBruteForce(const cv::Mat& query, const cv::Mat& train, const BruteForceParams& params) {
+  const char* ctx = "matchBruteForce";
+  params.check();
+  requireOrbDescriptors(query, ctx, "query");
+  requireOrbDescriptors(train, ctx, "train");
+  std::vector<IndexMatch> out;
+  if (query.empty() || train.empty()) return out;
+
+  cv::BFMatcher matcher(cv::NORM_HAMMING, false);
+  std::vector<std::vector<cv::DMatch>> knn;
+  matcher.knnMatch(query, train, knn, 2);
+  std::vector<int> bestQueryOfTrain;
+  if (params.crossCheck) {
+    std::vector<cv::DMatch> back;
+    matcher.match(train, query, back);
+    bestQueryOfTrain.assign(train.rows, -1);
+    for (const cv::DMatch& m : back) bestQueryOfTrain[m.queryIdx] = m.trainIdx;
+  }
+  for (const auto& candidates : knn) {
+    if (candidates.empty()) continue;
+    const cv::DMatch& best = candidates[0];
+    const int d = static_cast<int>(std::lround(best.distance));
+    if (d > params.maxDistance) continue;
+    if (params.ratio < 1.f && candidates.size() > 1 && !(best.distance < params.ratio * candidates[1].distance))
+      continue;
+    if (params.crossCheck && bestQueryOfTrain[best.trainIdx] != best.queryIdx) continue;
+    out.push_back({best.queryIdx, best.trainIdx, d});
+  }
+  std::sort(out.begin(), out.end(), [](const IndexMatch& a, const IndexMatch& b) { return a.i1 < b.i1; });
+  return out;
+}
+
+}  // namespace pslam::features

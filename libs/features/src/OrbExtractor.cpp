@@ -1,0 +1,335 @@
+#include "pslam/features/OrbExtractor.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "pslam/core/Error.h"
+
+namespace pslam::features {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// One quadtree node: an axis-aligned cell [x0,x1) x [y0,y1) and the keypoints inside it.
+struct QuadNode {
+  float x0, y0, x1, y1;
+  std::vector<int> keys;
+  bool alive = true;
+  bool leafDone = false;  // holds exactly one keypoint: never divided again (ORB-SLAM's bNoMore)
+};
+
+// Splits `node` into four children at the rounded-up half of its width and height, as ORB-SLAM does.
+void divideNode(const QuadNode& node, const std::vector<cv::KeyPoint>& kps, std::array<QuadNode, 4>& children) {
+  const float halfX = std::ceil((node.x1 - node.x0) / 2.f);
+  const float halfY = std::ceil((node.y1 - node.y0) / 2.f);
+  const float xm = node.x0 + halfX, ym = node.y0 + halfY;
+  children[0] = QuadNode{node.x0, node.y0, xm, ym, {}};
+  children[1] = QuadNode{xm, node.y0, node.x1, ym, {}};
+  children[2] = QuadNode{node.x0, ym, xm, node.y1, {}};
+  children[3] = QuadNode{xm, ym, node.x1, node.y1, {}};
+  for (QuadNode& c : children) c.keys.reserve(node.keys.size());
+  for (int k : node.keys) {
+    const cv::Point2f& p = kps[k].pt;
+    const int idx = (p.x < xm ? 0 : 1) + (p.y < ym ? 0 : 2);
+    children[idx].keys.push_back(k);
+  }
+  for (QuadNode& c : children) c.leafDone = c.keys.size() == 1;
+}
+
+}  // namespace
+
+OrbExtractor::OrbExtractor(const OrbParams& params) : params_(params) {
+  params_.check();
+  const int L = params_.nLevels;
+  scale_.resize(L);
+  invScale_.resize(L);
+  sigma2_.resize(L);
+  invSigma2_.resize(L);
+  scale_[0] = 1.f;
+  for (int l = 1; l < L; ++l) scale_[l] = scale_[l - 1] * static_cast<float>(params_.scaleFactor);
+  for (int l = 0; l < L; ++l) {
+    invScale_[l] = 1.f / scale_[l];
+    sigma2_[l] = scale_[l] * scale_[l];  // pixel noise grows with the level's pixel size
+    invSigma2_[l] = 1.f / sigma2_[l];
+  }
+
+  // Per-level budget: a geometric series N_l = N_0 r^l with sum N (ORB-SLAM uses r = 1/s); the last level
+  // takes the rounding remainder so that the budgets sum to nFeatures.
+  const double r = params_.levelBudgetByArea ? 1.0 / (params_.scaleFactor * params_.scaleFactor)
+                                             : 1.0 / params_.scaleFactor;
+  featuresPerLevel_.assign(L, 0);
+  double desired = params_.nFeatures * (1.0 - r) / (1.0 - std::pow(r, L));
+  int assigned = 0;
+  for (int l = 0; l < L - 1; ++l) {
+    featuresPerLevel_[l] = static_cast<int>(std::lround(desired));
+    assigned += featuresPerLevel_[l];
+    desired *= r;
+  }
+  featuresPerLevel_[L - 1] = std::max(params_.nFeatures - assigned, 0);
+
+  // Circular patch: umax[v] = half width of the disc of radius R at row offset v, made exactly symmetric
+  // under transposition (so the centroid angle does not prefer the x or the y axis).
+  const int R = params_.patchSize / 2;
+  umax_.assign(R + 1, 0);
+  const int vmax = static_cast<int>(std::floor(R * std::sqrt(2.0) / 2 + 1));
+  const int vmin = static_cast<int>(std::ceil(R * std::sqrt(2.0) / 2));
+  for (int v = 0; v <= vmax && v <= R; ++v) umax_[v] = static_cast<int>(std::lround(std::sqrt(double(R * R - v * v))));
+  for (int v = R, v0 = 0; v >= vmin; --v) {
+    while (umax_[v0] == umax_[v0 + 1]) ++v0;
+    umax_[v] = v0;
+    ++v0;
+  }
+
+  // Only OpenCV's descriptor code is used: one level, our keypoints (with our angles) on our padded level image.
+  describer_ = cv::ORB::create(params_.nFeatures, 1.2f, 1, params_.edgeThreshold, 0, 2, cv::ORB::HARRIS_SCORE,
+                               params_.patchSize, params_.iniThFAST);
+}
+
+void OrbExtractor::buildPyramid(const cv::Mat& grey) {
+  const int E = params_.edgeThreshold;
+  padded_.resize(params_.nLevels);
+  pyramid_.resize(params_.nLevels);
+  for (int l = 0; l < params_.nLevels; ++l) {
+    const cv::Size sz(std::max(1, static_cast<int>(std::lround(grey.cols * invScale_[l]))),
+                      std::max(1, static_cast<int>(std::lround(grey.rows * invScale_[l]))));
+    padded_[l].create(sz.height + 2 * E, sz.width + 2 * E, CV_8UC1);
+    cv::Mat view = padded_[l](cv::Rect(E, E, sz.width, sz.height));
+    if (l == 0) {
+      grey.copyTo(view);
+    } else {
+      // As ORB-SLAM: each level is resized from the previous one (bilinear).
+      cv::resize(pyramid_[l - 1], view, sz, 0, 0, cv::INTER_LINEAR);
+    }
+    // `view` already sits in the middle of padded_[l]: copyMakeBorder only fills the reflected border.
+    cv::copyMakeBorder(view, padded_[l], E, E, E, E, cv::BORDER_REFLECT_101 + cv::BORDER_ISOLATED);
+    pyramid_[l] = view;
+  }
+}
+
+void OrbExtractor::detectLevel(int level, std::vector<cv::KeyPoint>& out) const {
+  out.clear();
+  const cv::Mat& img = pyramid_[level];
+  const int minBorderX = params_.edgeThreshold - 3, minBorderY = minBorderX;
+  const int maxBorderX = img.cols - params_.edgeThreshold + 3;
+  const int maxBorderY = img.rows - params_.edgeThreshold + 3;
+  const int width = maxBorderX - minBorderX, height = maxBorderY - minBorderY;
+  if (width <= 6 || height <= 6 || featuresPerLevel_[level] <= 0) return;
+
+  const int nCols = std::max(1, width / params_.cellSize);
+  const int nRows = std::max(1, height / params_.cellSize);
+  const int wCell = static_cast<int>(std::ceil(double(width) / nCols));
+  const int hCell = static_cast<int>(std::ceil(double(height) / nRows));
+
+  std::vector<cv::KeyPoint> candidates;
+  candidates.reserve(static_cast<size_t>(featuresPerLevel_[level]) * 10);
+  std::vector<cv::KeyPoint> cellKeys;
+  for (int i = 0; i < nRows; ++i) {
+    const int iniY = minBorderY + i * hCell;
+    if (iniY >= maxBorderY - 3) continue;
+    // +6: FAST cannot fire within 3 px of the cell image border; overlapping cells by 6 px makes the
+    // detection areas of neighbouring cells tile the level without gaps or duplicates.
+    const int maxY = std::min(iniY + hCell + 6, maxBorderY);
+    for (int j = 0; j < nCols; ++j) {
+      const int iniX = minBorderX + j * wCell;
+      if (iniX >= maxBorderX - 3) continue;
+      const int maxX = std::min(iniX + wCell + 6, maxBorderX);
+      const cv::Mat cell = img(cv::Range(iniY, maxY), cv::Range(iniX, maxX));
+      cellKeys.clear();
+      cv::FAST(cell, cellKeys, params_.iniThFAST, true);
+      if (cellKeys.empty()) cv::FAST(cell, cellKeys, params_.minThFAST, true);  // weak-texture cell fallback
+      for (cv::KeyPoint kp : cellKeys) {
+        kp.pt.x += static_cast<float>(j * wCell);  // relative to (minBorderX, minBorderY)
+        kp.pt.y += static_cast<float>(i * hCell);
+        candidates.push_back(kp);
+      }
+    }
+  }
+
+  out = distributeQuadtree(candidates, minBorderX, maxBorderX, minBorderY, maxBorderY, featuresPerLevel_[level]);
+  const float scaledPatch = params_.patchSize * scale_[level];
+  for (cv::KeyPoint& kp : out) {
+    kp.pt.x += static_cast<float>(minBorderX);
+    kp.pt.y += static_cast<float>(minBorderY);
+    kp.octave = level;
+    kp.size = scaledPatch;
+  }
+}
+
+std::vector<cv::KeyPoint> OrbExtractor::distributeQuadtree(const std::vector<cv::KeyPoint>& kps, int minX, int maxX,
+                                                           int minY, int maxY, int target) {
+  std::vector<cv::KeyPoint> result;
+  if (kps.empty() || target <= 0 || maxX <= minX || maxY <= minY) return result;
+  const float W = static_cast<float>(maxX - minX), H = static_cast<float>(maxY - minY);
+
+  // Root: round(W/H) side-by-side square-ish nodes so that wide images start with square cells.
+  const int nIni = std::max(1, static_cast<int>(std::lround(W / H)));
+  const float hX = W / nIni;
+  std::vector<QuadNode> nodes;  // storage; divided nodes are flagged !alive, children appended
+  nodes.reserve(static_cast<size_t>(target) * 8);
+  for (int i = 0; i < nIni; ++i) nodes.push_back(QuadNode{hX * i, 0.f, hX * (i + 1), H, {}});
+  for (int k = 0; k < static_cast<int>(kps.size()); ++k) {
+    const int idx = std::clamp(static_cast<int>(kps[k].pt.x / hX), 0, nIni - 1);
+    nodes[idx].keys.push_back(k);
+  }
+  int aliveCount = 0;
+  for (QuadNode& n : nodes) {
+    n.alive = !n.keys.empty();
+    n.leafDone = n.keys.size() == 1;
+    aliveCount += n.alive ? 1 : 0;
+  }
+
+  // Replaces node `idx` by its non-empty children; returns the storage indices of children with > 1 key.
+  auto expand = [&](size_t idx, std::vector<size_t>& expandable) {
+    std::array<QuadNode, 4> children;
+    divideNode(nodes[idx], kps, children);
+    nodes[idx].alive = false;
+    nodes[idx].keys = {};
+    --aliveCount;
+    for (QuadNode& c : children) {
+      if (c.keys.empty()) continue;
+      const bool more = c.keys.size() > 1;
+      nodes.push_back(std::move(c));
+      ++aliveCount;
+      if (more) expandable.push_back(nodes.size() - 1);
+    }
+  };
+
+  bool finish = false;
+  for (int pass = 0; !finish && pass < 64; ++pass) {
+    const int prevCount = aliveCount;
+    std::vector<size_t> expandable;
+    // One pass divides every node that still holds several keypoints.
+    const size_t storageEnd = nodes.size();
+    for (size_t i = 0; i < storageEnd; ++i)
+      if (nodes[i].alive && !nodes[i].leafDone) expand(i, expandable);
+
+    if (aliveCount >= target || aliveCount == prevCount) {
+      finish = true;
+    } else if (aliveCount + 3 * static_cast<int>(expandable.size()) > target) {
+      // The next full pass would overshoot: divide the most populated nodes first until the target is met.
+      while (!finish) {
+        const int prev = aliveCount;
+        std::vector<size_t> toDivide;
+        toDivide.swap(expandable);
+        // Most keys first; ties by position so the result does not depend on memory addresses.
+        std::sort(toDivide.begin(), toDivide.end(), [&](size_t a, size_t b) {
+          const QuadNode &na = nodes[a], &nb = nodes[b];
+          if (na.keys.size() != nb.keys.size()) return na.keys.size() > nb.keys.size();
+          if (na.y0 != nb.y0) return na.y0 < nb.y0;
+          return na.x0 < nb.x0;
+        });
+        for (size_t idx : toDivide) {
+          expand(idx, expandable);
+          if (aliveCount >= target) break;
+        }
+        if (aliveCount >= target || aliveCount == prev) finish = true;
+      }
+    }
+  }
+
+  // Keep the strongest corner of every leaf (first one on equal responses: input order is deterministic).
+  result.reserve(aliveCount);
+  for (const QuadNode& n : nodes) {
+    if (!n.alive) continue;
+    int best = n.keys.front();
+    for (int k : n.keys)
+      if (kps[k].response > kps[best].response) best = k;
+    result.push_back(kps[best]);
+  }
+  return result;
+}
+
+float OrbExtractor::intensityCentroidAngle(const cv::Mat& image, cv::Point2f pt) const {
+  const int R = params_.patchSize / 2;
+  const uchar* center = image.ptr<uchar>(cvRound(pt.y)) + cvRound(pt.x);
+  const int step = static_cast<int>(image.step1());
+  // Moments m10 = sum u I, m01 = sum v I over the disc (eq. 2.13); rows +v and -v are visited together.
+  int m10 = 0, m01 = 0;
+  for (int u = -R; u <= R; ++u) m10 += u * center[u];
+  for (int v = 1; v <= R; ++v) {
+    int rowDiff = 0;
+    const int d = umax_[v];
+    for (int u = -d; u <= d; ++u) {
+      const int below = center[u + v * step], above = center[u - v * step];
+      rowDiff += below - above;
+      m10 += u * (below + above);
+    }
+    m01 += v * rowDiff;
+  }
+  return cv::fastAtan2(static_cast<float>(m01), static_cast<float>(m10));  // eq. 2.14, degrees
+}
+
+void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
+                           OrbStageTimes* times) {
+  require(!image.empty(), "OrbExtractor::extract", "empty image");
+  require(image.depth() == CV_8U, "OrbExtractor::extract",
+          "image must be 8-bit (got depth " + std::to_string(image.depth()) + ")");
+  cv::Mat grey;
+  switch (image.channels()) {
+    case 1: grey = image; break;
+    case 3: cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY); break;
+    case 4: cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY); break;
+    default:
+      throw Error("OrbExtractor::extract: unsupported number of channels " + std::to_string(image.channels()));
+  }
+  OrbStageTimes local;
+  OrbStageTimes& t = times ? *times : local;
+  t = OrbStageTimes{};
+
+  auto start = Clock::now();
+  buildPyramid(grey);
+  t.pyramidMs = msSince(start);
+
+  const int L = params_.nLevels;
+  std::vector<std::vector<cv::KeyPoint>> perLevel(L);
+  start = Clock::now();
+  for (int l = 0; l < L; ++l) detectLevel(l, perLevel[l]);
+  t.detectMs = msSince(start);
+
+  start = Clock::now();
+  for (int l = 0; l < L; ++l)
+    for (cv::KeyPoint& kp : perLevel[l]) kp.angle = intensityCentroidAngle(pyramid_[l], kp.pt);
+  t.orientationMs = msSince(start);
+
+  start = Clock::now();
+  size_t total = 0;
+  for (const auto& v : perLevel) total += v.size();
+  keypoints.clear();
+  keypoints.reserve(total);
+  descriptors.create(static_cast<int>(total), 32, CV_8UC1);
+  const int E = params_.edgeThreshold;
+  int row = 0;
+  std::vector<cv::KeyPoint> inPadded;
+  cv::Mat levelDesc;
+  for (int l = 0; l < L; ++l) {
+    if (perLevel[l].empty()) continue;
+    // OpenCV's ORB blurs the image (7x7 Gaussian, sigma 2) and evaluates the steered pattern at each keypoint
+    // with the keypoint's own angle; we hand it the padded level so that no keypoint is dropped at the border.
+    inPadded = perLevel[l];
+    for (cv::KeyPoint& kp : inPadded) {
+      kp.pt.x += E;
+      kp.pt.y += E;
+      kp.octave = 0;
+    }
+    describer_->compute(padded_[l], inPadded, levelDesc);
+    if (inPadded.size() != perLevel[l].size() || levelDesc.rows != static_cast<int>(perLevel[l].size()) ||
+        levelDesc.cols != 32 || levelDesc.type() != CV_8UC1)
+      throw Error("OrbExtractor::extract: OpenCV ORB dropped keypoints of level " + std::to_string(l));
+    levelDesc.copyTo(descriptors.rowRange(row, row + levelDesc.rows));
+    row += levelDesc.rows;
+    for (cv::KeyPoint kp : perLevel[l]) {
+      kp.pt *= scale_[l];
+      keypoints.push_back(kp);
+    }
+  }
+  t.descriptorMs = msSince(start);
+}
+
+}  // namespace pslam::features
