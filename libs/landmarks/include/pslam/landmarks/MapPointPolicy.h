@@ -1,0 +1,75 @@
+#pragma once
+// The system-wide choice of map-point model compared in §3.5.5.1 (Table 3.3):
+//   heuristic     - ORB-SLAM*: found/visible bookkeeping and ORB-SLAM's map-point culling; every point is used.
+//   masking       - ORB-SLAM* culling, and a point is inactive while P(dynamic) > 0.5 (semantic masking).
+//   probabilistic - the keypoint model of §3.3: active while the inlier ratio phi >= psi_min.
+// The SLAM core keeps a MapPointRecord per point and asks the policy; switching models is a config key.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "pslam/landmarks/KeypointModel.h"
+
+namespace mrpt::config {
+class CConfigFileBase;
+}
+
+namespace pslam::landmarks {
+
+enum class MapPointModel { Heuristic, Masking, Probabilistic };
+
+/// "heuristic" | "masking" | "probabilistic" (case-insensitive). Throws pslam::Error listing the choices.
+MapPointModel parseMapPointModel(const std::string& text);
+std::string toString(MapPointModel model);
+
+/// ORB-SLAM's bookkeeping (MapPoint::mnVisible / mnFound, observation count, first keyframe id).
+struct HeuristicCounters {
+  std::uint32_t visible = 1;       ///< frames in whose frustum the point projected
+  std::uint32_t found = 1;         ///< frames in which it was matched
+  std::uint32_t observations = 0;  ///< keyframes observing it
+  std::int64_t firstKeyframeId = 0;
+  bool bad = false;                ///< set once culled
+  double foundRatio() const { return visible == 0 ? 0.0 : double(found) / double(visible); }
+};
+
+/// Everything a policy may look at for one map point.
+struct MapPointRecord {
+  KeypointState model;
+  HeuristicCounters counters;
+};
+
+struct MapPointPolicyParams {
+  MapPointModel model = MapPointModel::Probabilistic;
+  // ORB-SLAM LocalMapping::MapPointCulling constants.
+  double minFoundRatio = 0.25;          ///< cull when found/visible < this
+  std::uint32_t minObservations = 2;    ///< cnThObs (monocular): cull when observations <= this ...
+  std::int64_t observationWindow = 2;   ///< ... and at least this many keyframes have passed since creation
+  double maskingDynamicThreshold = 0.5; ///< masking: inactive when P(dynamic) > this (§3.5.5.1)
+  /// probabilistic: cull once phi < this after at least `cullMinDepthUpdates` depth updates (design choice,
+  /// the thesis keeps inactive points; 0 disables culling).
+  double cullInlierRatio = 0.1;
+  std::uint32_t cullMinDepthUpdates = 5;
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  void check() const;
+};
+
+class MapPointPolicy {
+ public:
+  virtual ~MapPointPolicy() = default;
+  virtual MapPointModel model() const = 0;
+  /// Use the point for tracking / bundle adjustment now?
+  virtual bool isActive(const MapPointRecord& point) const = 0;
+  /// Remove the point from the map (checked by local mapping at each new keyframe)?
+  virtual bool shouldCull(const MapPointRecord& point, std::int64_t currentKeyframeId) const = 0;
+};
+
+/// ORB-SLAM's culling rules on the counters (shared by the heuristic and masking policies).
+bool orbSlamShouldCull(const HeuristicCounters& counters, std::int64_t currentKeyframeId,
+                       const MapPointPolicyParams& params);
+
+/// The policy for params.model; the keypoint model supplies class posteriors and inlier ratios.
+std::unique_ptr<MapPointPolicy> makeMapPointPolicy(const MapPointPolicyParams& params, const KeypointModel& model);
+
+}  // namespace pslam::landmarks

@@ -1,0 +1,65 @@
+#include <gtest/gtest.h>
+
+#include <mrpt/config/CConfigFileMemory.h>
+
+#include "pslam/core/Error.h"
+#include "pslam/landmarks/MapPointPolicy.h"
+
+using namespace pslam::landmarks;
+
+TEST(MapPointModel, ParseAndPrintRoundTrip) {
+  for (auto m : {MapPointModel::Heuristic, MapPointModel::Masking, MapPointModel::Probabilistic})
+    EXPECT_EQ(parseMapPointModel(toString(m)), m);
+  EXPECT_EQ(parseMapPointModel("Probabilistic"), MapPointModel::Probabilistic);
+  EXPECT_THROW(parseMapPointModel("orb"), pslam::Error);
+}
+
+TEST(MapPointPolicy, ConfigSelectsTheModel) {
+  mrpt::config::CConfigFileMemory cfg;
+  cfg.write("MapPoints", "model", "masking");
+  MapPointPolicyParams p;
+  p.loadFromConfigFile(cfg, "MapPoints");
+  EXPECT_EQ(makeMapPointPolicy(p, KeypointModel{})->model(), MapPointModel::Masking);
+  cfg.write("MapPoints", "model", "bogus");
+  EXPECT_THROW(p.loadFromConfigFile(cfg, "MapPoints"), pslam::Error);
+}
+
+TEST(MapPointPolicy, HeuristicFollowsOrbSlamCulling) {
+  MapPointPolicyParams p;
+  p.model = MapPointModel::Heuristic;
+  const auto policy = makeMapPointPolicy(p, KeypointModel{});
+  MapPointRecord r;
+  r.counters = {10, 9, 3, 0, false};
+  EXPECT_TRUE(policy->isActive(r));
+  EXPECT_FALSE(policy->shouldCull(r, 5));
+  r.counters.found = 2;  // 2/10 < 0.25
+  EXPECT_TRUE(policy->shouldCull(r, 5));
+  r.counters = {10, 9, 2, 0, false};  // only two keyframes see it ...
+  EXPECT_FALSE(policy->shouldCull(r, 1));  // ... too early to tell
+  EXPECT_TRUE(policy->shouldCull(r, 2));
+}
+
+TEST(MapPointPolicy, MaskingDeactivatesDynamicAndProbabilisticUsesInlierRatio) {
+  const KeypointModel model{KeypointModelParams{}};
+  MapPointPolicyParams p;
+  p.model = MapPointModel::Masking;
+  const auto masking = makeMapPointPolicy(p, model);
+  p.model = MapPointModel::Probabilistic;
+  const auto probabilistic = makeMapPointPolicy(p, model);
+  MapPointRecord car;
+  car.model = model.initialize(0.5, 1e-3);
+  model.addSemanticObservation(car.model, {0.1, 0.85, 0.05}, 1.0);
+  EXPECT_FALSE(masking->isActive(car));
+  EXPECT_FALSE(probabilistic->isActive(car));
+  // Consistent depth: the probabilistic model activates the parked car, masking never does.
+  for (int i = 0; i < 30; ++i) model.updateDepth(car.model, 0.5, 1e-4, 1.0);
+  EXPECT_TRUE(probabilistic->isActive(car));
+  EXPECT_FALSE(masking->isActive(car));
+  // Inconsistent depth: the probabilistic model culls it after enough evidence.
+  MapPointRecord moving = car;
+  moving.model = model.initialize(0.5, 1e-3);
+  // Each outlier adds ~1 to b: phi = (10 + 5/3) / (20 + 10/3 + n) falls below 0.1 after ~95 of them.
+  for (int i = 0; i < 120; ++i) model.updateDepth(moving.model, i % 2 ? 3.0 : 7.0, 1e-4, 1.0);
+  EXPECT_TRUE(probabilistic->shouldCull(moving, 0));
+  EXPECT_FALSE(probabilistic->shouldCull(car, 0));
+}
