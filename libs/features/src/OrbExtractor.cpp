@@ -319,9 +319,15 @@ void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keyp
       kp.octave = 0;
     }
     describer_->compute(padded_[l], inPadded, levelDesc);
-    if (inPadded.size() != perLevel[l].size() || levelDesc.rows != static_cast<int>(perLevel[l].size()) ||
-        levelDesc.cols != 32 || levelDesc.type() != CV_8UC1)
-      throw Error("OrbExtractor::extract: OpenCV ORB dropped keypoints of level " + std::to_string(l));
+    // OpenCV must have used exactly our keypoints, in order, with our angles (it would otherwise silently drop
+    // border keypoints or reorder them); cheap to verify, fatal if violated.
+    bool same = inPadded.size() == perLevel[l].size() && levelDesc.rows == static_cast<int>(perLevel[l].size()) &&
+                levelDesc.cols == 32 && levelDesc.type() == CV_8UC1;
+    for (size_t i = 0; same && i < inPadded.size(); ++i)
+      same = inPadded[i].angle == perLevel[l][i].angle && inPadded[i].pt.x == perLevel[l][i].pt.x + E &&
+             inPadded[i].pt.y == perLevel[l][i].pt.y + E;
+    if (!same)
+      throw Error("OrbExtractor::extract: OpenCV ORB changed the keypoints of level " + std::to_string(l));
     levelDesc.copyTo(descriptors.rowRange(row, row + levelDesc.rows));
     row += levelDesc.rows;
     for (cv::KeyPoint kp : perLevel[l]) {
