@@ -1,0 +1,36 @@
+#pragma once
+// Saving / loading the whole map as a `.slammap` file: one versioned MRPT CSerializable object
+// (pslam::map::CSlamMapArchive) in a gz-compressed MRPT archive. Format: doc/map_and_optimization.md.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include <mrpt/serialization/CSerializable.h>
+
+#include "pslam/map/Map.h"
+
+namespace pslam::map {
+
+/// The serializable wrapper. serializeGetVersion() is the format version; serializeFrom() refuses any
+/// other version with a pslam::Error naming both versions.
+class CSlamMapArchive : public mrpt::serialization::CSerializable {
+  DEFINE_SERIALIZABLE(CSlamMapArchive, pslam::map)
+ public:
+  static constexpr std::uint8_t kFormatVersion = 0;
+  Map map;
+  /// Why the last serializeFrom() failed (MRPT replaces the message of exceptions thrown inside it).
+  std::string readFailure;
+
+ private:
+  void readContent(mrpt::serialization::CArchive& in, std::uint8_t version);
+};
+
+/// Writes `map` to `path` atomically (temporary file + rename), gz level 6. Throws pslam::Error naming the
+/// path when the map violates its invariants or the file cannot be written.
+void saveMap(const Map& map, const std::filesystem::path& path);
+
+/// Reads a map written by saveMap(). Throws pslam::Error naming the file when it is missing, not a
+/// .slammap, truncated, corrupt, of an unsupported version, or its content violates the map invariants.
+Map loadMap(const std::filesystem::path& path);
+
+}  // namespace pslam::map

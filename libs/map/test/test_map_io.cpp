@@ -1,0 +1,149 @@
+// .slammap save / load: exact round trip, and a pslam::Error naming the file for missing, truncated,
+// corrupt, foreign and wrong-version files.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include <mrpt/io/CFileGZInputStream.h>
+#include <mrpt/io/CFileGZOutputStream.h>
+
+#include "SyntheticMap.h"
+#include "pslam/core/Error.h"
+#include "pslam/map/MapIO.h"
+
+namespace fs = std::filesystem;
+using namespace pslam::map;
+using namespace pslam::map::testing;
+
+namespace {
+
+fs::path tempDir() {
+  const fs::path d = fs::temp_directory_path() / ("pslam_map_io_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+Map richMap() {
+  SyntheticScene scene;
+  Map map = buildSyntheticMap(5, 200, scene);
+  // Exercise every optional field.
+  KeyFrame& kf = map.mutableKeyFrame(scene.keyframeIds[1]);
+  kf.semanticProbabilities.assign(kf.keypoints.size(), {0.7f, 0.2f, 0.1f});
+  std::size_t i = 0;
+  for (const auto& [id, p] : map.mapPoints()) {
+    MapPoint& mp = map.mutableMapPoint(id);
+    mp.landmarkState = {double(i), 0.25, -1e-300, 1.0 / 3.0};
+    mp.visibleCount = int(i % 9) + 1;
+    mp.bad = (i % 13) == 0;
+    ++i;
+  }
+  map.eraseKeyFrame(scene.keyframeIds[3]);  // ids with a gap
+  return map;
+}
+
+std::string readAll(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+void writeAll(const fs::path& p, const std::string& s) {
+  std::ofstream f(p, std::ios::binary);
+  f << s;
+}
+
+std::string expectLoadError(const fs::path& p) {
+  try {
+    loadMap(p);
+  } catch (const pslam::Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(p.string()), std::string::npos) << msg;
+    return msg;
+  }
+  ADD_FAILURE() << "loading " << p << " did not throw";
+  return {};
+}
+
+}  // namespace
+
+TEST(MapIO, RoundTripIsExact) {
+  const Map map = richMap();
+  const fs::path file = tempDir() / "round.slammap";
+  saveMap(map, file);
+  const Map loaded = loadMap(file);
+  EXPECT_TRUE(loaded == map);
+  EXPECT_EQ(loaded.numKeyFrames(), map.numKeyFrames());
+  EXPECT_EQ(loaded.numMapPoints(), map.numMapPoints());
+  // Saving the loaded map gives the same bytes (deterministic output).
+  const fs::path again = tempDir() / "again.slammap";
+  saveMap(loaded, again);
+  EXPECT_EQ(readAll(file), readAll(again));
+  // Continue working on the loaded map: ids continue where they stopped.
+  Map m2 = loaded;
+  KeyFrame kf = m2.keyFrame(m2.rootKeyFrame());
+  EXPECT_EQ(m2.addKeyFrame(kf), map.nextKeyFrameId());
+  // No temporary files left behind.
+  for (const auto& e : fs::directory_iterator(file.parent_path()))
+    EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
+}
+
+TEST(MapIO, EmptyMapRoundTrip) {
+  const fs::path file = tempDir() / "empty.slammap";
+  saveMap(Map(), file);
+  EXPECT_TRUE(loadMap(file) == Map());
+}
+
+TEST(MapIO, MissingFile) {
+  const std::string msg = expectLoadError(tempDir() / "does_not_exist.slammap");
+  EXPECT_NE(msg.find("not found"), std::string::npos) << msg;
+}
+
+TEST(MapIO, TruncatedFile) {
+  const fs::path file = tempDir() / "full.slammap";
+  saveMap(richMap(), file);
+  const std::string bytes = readAll(file);
+  for (double fraction : {0.05, 0.5, 0.95}) {
+    const fs::path cut = tempDir() / "cut.slammap";
+    writeAll(cut, bytes.substr(0, std::size_t(bytes.size() * fraction)));
+    expectLoadError(cut);
+  }
+}
+
+TEST(MapIO, CorruptFile) {
+  const fs::path file = tempDir() / "full2.slammap";
+  saveMap(richMap(), file);
+  std::string bytes = readAll(file);
+  for (std::size_t i = bytes.size() / 3; i < bytes.size() / 3 + 64; ++i) bytes[i] = char(bytes[i] ^ 0x5A);
+  const fs::path bad = tempDir() / "corrupt.slammap";
+  writeAll(bad, bytes);
+  expectLoadError(bad);
+  // Not gz / not a map at all.
+  const fs::path text = tempDir() / "text.slammap";
+  writeAll(text, "this is not a map\n");
+  expectLoadError(text);
+}
+
+TEST(MapIO, WrongVersion) {
+  const fs::path file = tempDir() / "v.slammap";
+  saveMap(richMap(), file);
+  // Decompress, bump the version byte that follows the class name in MRPT's object header, recompress.
+  std::string raw;
+  {
+    mrpt::io::CFileGZInputStream in(file.string());
+    char buf[4096];
+    std::size_t n = 0;
+    while ((n = in.Read(buf, sizeof buf)) > 0) raw.append(buf, n);
+  }
+  const std::string name = CSlamMapArchive::className;
+  const std::size_t pos = raw.find(name);
+  ASSERT_NE(pos, std::string::npos);
+  ASSERT_EQ(std::uint8_t(raw[pos + name.size()]), CSlamMapArchive::kFormatVersion);
+  raw[pos + name.size()] = char(CSlamMapArchive::kFormatVersion + 1);
+  const fs::path bumped = tempDir() / "v_next.slammap";
+  {
+    mrpt::io::CFileGZOutputStream out(bumped.string());
+    out.Write(raw.data(), raw.size());
+  }
+  const std::string msg = expectLoadError(bumped);
+  EXPECT_NE(msg.find("version 1"), std::string::npos) << msg;
+}
