@@ -1,0 +1,259 @@
+#include "pslam/eval/EvalApp.h"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include <mrpt/config/CConfigFileBase.h>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+#include "pslam/eval/Plot.h"
+
+namespace pslam::eval {
+
+void EvalOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
+  association.rule = parseAssociationRule(cfg.read_string(section, "association", toString(association.rule)));
+  association.maxTimeDifference = cfg.read_double(section, "max_time_difference", association.maxTimeDifference);
+  association.offset = cfg.read_double(section, "time_offset", association.offset);
+  alignment = parseAlignmentMode(cfg.read_string(section, "alignment", toString(alignment)));
+  const int firstN = cfg.read_int(section, "align_first_n", static_cast<int>(alignFirstN));
+  if (firstN < 0) throw Error("align_first_n: must be >= 0 (0 = all poses)");
+  alignFirstN = static_cast<std::size_t>(firstN);
+  rpe = cfg.read_bool(section, "rpe", rpe);
+  rpeOptions.delta = cfg.read_double(section, "rpe_delta", rpeOptions.delta);
+  rpeOptions.unit = parseDeltaUnit(cfg.read_string(section, "rpe_delta_unit", toString(rpeOptions.unit)));
+  rpeOptions.allPairs = cfg.read_bool(section, "rpe_all_pairs", rpeOptions.allPairs);
+  rpeOptions.relativeTolerance = cfg.read_double(section, "rpe_relative_tolerance", rpeOptions.relativeTolerance);
+  rotationError = cfg.read_bool(section, "rotation_error", rotationError);
+  depthUseAlignmentScale = cfg.read_bool(section, "dr_use_alignment_scale", depthUseAlignmentScale);
+  depthRatio.loadFromConfigFile(cfg, section);
+  check();
+}
+
+void EvalOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
+  cfg.write(section, "association", toString(association.rule));
+  cfg.write(section, "max_time_difference", association.maxTimeDifference);
+  cfg.write(section, "time_offset", association.offset);
+  cfg.write(section, "alignment", toString(alignment));
+  cfg.write(section, "align_first_n", static_cast<int>(alignFirstN));
+  cfg.write(section, "rpe", rpe);
+  cfg.write(section, "rpe_delta", rpeOptions.delta);
+  cfg.write(section, "rpe_delta_unit", toString(rpeOptions.unit));
+  cfg.write(section, "rpe_all_pairs", rpeOptions.allPairs);
+  cfg.write(section, "rpe_relative_tolerance", rpeOptions.relativeTolerance);
+  cfg.write(section, "rotation_error", rotationError);
+  cfg.write(section, "dr_use_alignment_scale", depthUseAlignmentScale);
+  depthRatio.saveToConfigFile(cfg, section);
+}
+
+void EvalOptions::check() const {
+  if (!(association.maxTimeDifference >= 0.0) || !std::isfinite(association.maxTimeDifference))
+    throw Error("max_time_difference: must be a finite value >= 0");
+  if (!std::isfinite(association.offset)) throw Error("time_offset: must be finite");
+  if (!(rpeOptions.delta > 0.0) || !std::isfinite(rpeOptions.delta)) throw Error("rpe_delta: must be > 0");
+  if (rpeOptions.unit == DeltaUnit::Frames && rpeOptions.delta != std::floor(rpeOptions.delta))
+    throw Error("rpe_delta: must be an integer when rpe_delta_unit = frames");
+  if (!(rpeOptions.relativeTolerance >= 0.0) || !std::isfinite(rpeOptions.relativeTolerance))
+    throw Error("rpe_relative_tolerance: must be a finite value >= 0");
+  if (depthUseAlignmentScale && alignment != AlignmentMode::Sim3)
+    throw Error("dr_use_alignment_scale: needs alignment = sim3");
+  if (depthSamples.empty() != depthRawlog.empty())
+    throw Error("DR needs both the map-point depth file and the rawlog with DEPTH");
+  depthRatio.check();
+}
+
+nlohmann::json EvalOptions::toJson() const {
+  return {{"gt_format", toString(gtFormat)},
+          {"est_format", toString(estFormat)},
+          {"gt_times", gtTimes.string()},
+          {"est_times", estTimes.string()},
+          {"association", toString(association.rule)},
+          {"max_time_difference", association.maxTimeDifference},
+          {"time_offset", association.offset},
+          {"alignment", toString(alignment)},
+          {"align_first_n", alignFirstN},
+          {"rpe", rpe},
+          {"rpe_delta", rpeOptions.delta},
+          {"rpe_delta_unit", toString(rpeOptions.unit)},
+          {"rpe_all_pairs", rpeOptions.allPairs},
+          {"rpe_relative_tolerance", rpeOptions.relativeTolerance},
+          {"rotation_error", rotationError},
+          {"dr_samples", depthSamples.string()},
+          {"dr_rawlog", depthRawlog.string()},
+          {"dr_tau", depthRatio.tau},
+          {"dr_scale", depthRatio.scale},
+          {"dr_max_time_difference", depthRatio.maxTimeDifference},
+          {"dr_use_alignment_scale", depthUseAlignmentScale}};
+}
+
+EvalApp::EvalApp(EvalOptions options) : options_(std::move(options)) { options_.check(); }
+
+EvalResult EvalApp::run(const std::filesystem::path& gtPath, const std::filesystem::path& estPath) const {
+  const TrajectoryFormat gtFormat =
+      options_.gtFormat == TrajectoryFormat::Auto ? detectTrajectoryFormat(gtPath) : options_.gtFormat;
+  const TrajectoryFormat estFormat =
+      options_.estFormat == TrajectoryFormat::Auto ? detectTrajectoryFormat(estPath) : options_.estFormat;
+  const Trajectory gt = readTrajectory(gtPath, gtFormat, options_.gtTimes);
+  const Trajectory est = readTrajectory(estPath, estFormat, options_.estTimes);
+  if (gt.empty()) throw Error(gtPath.string() + ": no poses");
+  if (est.empty()) throw Error(estPath.string() + ": no poses");
+  EvalOptions effective = options_;
+  // KITTI poses without times files carry only their index: timestamps would be meaningless.
+  const bool gtIndexOnly = gtFormat == TrajectoryFormat::Kitti && options_.gtTimes.empty();
+  const bool estIndexOnly = estFormat == TrajectoryFormat::Kitti && options_.estTimes.empty();
+  if (gtIndexOnly || estIndexOnly) effective.association.rule = AssociationRule::ByIndex;
+  return EvalApp(effective).evaluate(gt, est);
+}
+
+EvalResult EvalApp::evaluate(const Trajectory& gt, const Trajectory& est) const {
+  EvalResult r;
+  r.gtPoses = gt.size();
+  r.estPoses = est.size();
+  r.ruleUsed = options_.association.rule;
+  const Association association = associate(gt, est, options_.association);
+  Trajectory estAssociated;
+  selectAssociated(gt, est, association, r.gtAssociated, estAssociated);
+  r.alignment = alignTrajectories(r.gtAssociated, estAssociated, options_.alignment, options_.alignFirstN);
+  r.estAligned = applyAlignment(estAssociated, r.alignment);
+  r.ate = computeAte(r.gtAssociated, r.estAligned);
+  if (options_.rpe) r.rpe = computeRpe(r.gtAssociated, r.estAligned, options_.rpeOptions);
+  if (options_.rotationError) r.rotationError = computeRotationError(r.gtAssociated, r.estAligned);
+  if (!options_.depthSamples.empty()) {
+    DepthRatioOptions dr = options_.depthRatio;
+    if (options_.depthUseAlignmentScale) dr.scale *= r.alignment.scale;
+    r.depthRatio = computeDepthRatio(readDepthSamples(options_.depthSamples), options_.depthRawlog, dr);
+  }
+  return r;
+}
+
+namespace {
+std::string statsRow(const std::string& name, const ErrorStatistics& s) {
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "%-16s %10.6f %10.6f %10.6f %10.6f %10.6f %10.6f %7zu", name.c_str(), s.rmse,
+                s.mean, s.median, s.std, s.min, s.max, s.count);
+  return buf;
+}
+}  // namespace
+
+std::string EvalApp::formatTable(const EvalResult& r) const {
+  std::ostringstream out;
+  out << "poses: ground truth " << r.gtPoses << ", estimate " << r.estPoses << "; pairs " << r.gtAssociated.size()
+      << " (association " << toString(r.ruleUsed);
+  if (r.ruleUsed != AssociationRule::ByIndex)
+    out << ", max dt " << options_.association.maxTimeDifference << " s, offset " << options_.association.offset
+        << " s";
+  out << ")\n";
+  char buf[128];
+  std::snprintf(buf, sizeof(buf), "%.6f", r.alignment.scale);
+  out << "alignment: " << toString(options_.alignment) << " on "
+      << (options_.alignFirstN == 0 ? std::string("all pairs") : "first " + std::to_string(options_.alignFirstN))
+      << ", scale " << buf << "\n";
+  std::snprintf(buf, sizeof(buf), "%-16s %10s %10s %10s %10s %10s %10s %7s", "metric", "rmse", "mean", "median",
+                "std", "min", "max", "n");
+  out << buf << "\n";
+  out << statsRow("ATE [m]", r.ate.stats) << "\n";
+  if (r.rpe) {
+    std::ostringstream d;
+    d << options_.rpeOptions.delta << toString(options_.rpeOptions.unit) << (options_.rpeOptions.allPairs ? ",all" : "");
+    out << statsRow("RPE t [m]", r.rpe->translation) << "  delta " << d.str() << "\n";
+    out << statsRow("RPE r [deg]", r.rpe->rotation) << "\n";
+  }
+  if (r.rotationError) out << statsRow("RE [deg]", r.rotationError->stats) << "  (eq. 4.8 = mean)\n";
+  if (r.depthRatio) {
+    std::snprintf(buf, sizeof(buf), "%.4f", r.depthRatio->ratio);
+    out << "DR (tau " << options_.depthRatio.tau << "): " << buf << " (" << r.depthRatio->inliers << " / "
+        << r.depthRatio->evaluated << " points, " << r.depthRatio->withoutGroundTruth << " without GT depth)\n";
+  }
+  return out.str();
+}
+
+nlohmann::json EvalApp::toJson(const EvalResult& r) const {
+  nlohmann::json j;
+  j["options"] = options_.toJson();
+  j["association_used"] = toString(r.ruleUsed);
+  j["poses"] = {{"ground_truth", r.gtPoses}, {"estimate", r.estPoses}, {"pairs", r.gtAssociated.size()}};
+  j["alignment"] = r.alignment.toJson();
+  j["ate"] = r.ate.stats.toJson();
+  if (r.rpe) {
+    j["rpe"] = {{"translation", r.rpe->translation.toJson()},
+                {"rotation_deg", r.rpe->rotation.toJson()},
+                {"pairs", r.rpe->pairs.size()}};
+  }
+  if (r.rotationError) j["re_deg"] = r.rotationError->stats.toJson();
+  if (r.depthRatio) j["dr"] = r.depthRatio->toJson();
+  return j;
+}
+
+void EvalApp::writeJson(const EvalResult& result, const std::filesystem::path& path) const {
+  const nlohmann::json j = toJson(result);
+  writeFileAtomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+}
+
+std::vector<std::filesystem::path> EvalApp::writePlots(const EvalResult& r, const std::filesystem::path& dir,
+                                                       const std::string& titlePrefix) const {
+  std::vector<std::filesystem::path> written;
+  const std::size_t n = r.gtAssociated.size();
+  // Top view: the two world axes along which the ground truth spreads most (x-y for TUM/EuRoC, x-z KITTI).
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : r.gtAssociated) mean += p.position;
+  mean /= static_cast<double>(n);
+  Eigen::Vector3d spread = Eigen::Vector3d::Zero();
+  for (const auto& p : r.gtAssociated) spread += (p.position - mean).cwiseAbs2();
+  int a0 = 0, a1 = 1;
+  {
+    int smallest = 0;
+    for (int k = 1; k < 3; ++k)
+      if (spread(k) < spread(smallest)) smallest = k;
+    a0 = smallest == 0 ? 1 : 0;
+    a1 = smallest == 2 ? 1 : 2;
+  }
+  const char* axisName[] = {"x [m]", "y [m]", "z [m]"};
+  std::vector<double> gx, gy, ex, ey;
+  for (std::size_t k = 0; k < n; ++k) {
+    gx.push_back(r.gtAssociated[k].position(a0));
+    gy.push_back(r.gtAssociated[k].position(a1));
+    ex.push_back(r.estAligned[k].position(a0));
+    ey.push_back(r.estAligned[k].position(a1));
+  }
+  const bool byIndex = r.ruleUsed == AssociationRule::ByIndex;
+  std::vector<double> t;
+  for (const auto& p : r.gtAssociated) t.push_back(p.timestamp - r.gtAssociated.front().timestamp);
+  const std::string timeLabel = byIndex ? "frame index" : "time [s]";
+  const std::string align = " (" + toString(options_.alignment) + " aligned)";
+
+  Plot top(titlePrefix + "Top view" + align, axisName[a0], axisName[a1]);
+  top.style().equalAspect = true;
+  top.addLine(gx, gy, "ground truth", colors::grey(), 2);
+  top.addLine(ex, ey, "estimate", colors::black(), 1);
+  top.addColoredScatter(ex, ey, r.ate.errors, "ATE error", "ATE [m]", 3);
+  written.push_back(dir / "eval_top_view.png");
+  top.save(written.back());
+
+  Plot ate(titlePrefix + "ATE over time" + align, timeLabel, "ATE [m]");
+  ate.addLine(t, r.ate.errors, "ATE", colors::blue(), 2);
+  ate.addLine({t.front(), t.back()}, {r.ate.stats.rmse, r.ate.stats.rmse}, "rmse", colors::red(), 1);
+  ate.addLine({t.front(), t.back()}, {r.ate.stats.median, r.ate.stats.median}, "median", colors::green(), 1);
+  written.push_back(dir / "eval_ate_over_time.png");
+  ate.save(written.back());
+
+  if (r.rpe) {
+    std::vector<double> tp;  // stamp of the pair's second pose, as evo's plots
+    for (const auto& pr : r.rpe->pairs) tp.push_back(t[pr.second]);
+    std::ostringstream d;
+    d << options_.rpeOptions.delta << " " << toString(options_.rpeOptions.unit);
+    Plot rt(titlePrefix + "RPE translation over time, delta " + d.str() + align, timeLabel, "RPE t [m]");
+    rt.addLine(tp, r.rpe->translationErrors, "RPE t", colors::orange(), 2);
+    rt.addLine({tp.front(), tp.back()}, {r.rpe->translation.rmse, r.rpe->translation.rmse}, "rmse", colors::red(), 1);
+    written.push_back(dir / "eval_rpe_over_time.png");
+    rt.save(written.back());
+    Plot rr(titlePrefix + "RPE rotation over time, delta " + d.str(), timeLabel, "RPE r [deg]");
+    rr.addLine(tp, r.rpe->rotationErrorsDeg, "RPE r", colors::purple(), 2);
+    rr.addLine({tp.front(), tp.back()}, {r.rpe->rotation.rmse, r.rpe->rotation.rmse}, "rmse", colors::red(), 1);
+    written.push_back(dir / "eval_rpe_rot_over_time.png");
+    rr.save(written.back());
+  }
+  return written;
+}
+
+}  // namespace pslam::eval
