@@ -1,0 +1,58 @@
+#pragma once
+// Mapping from a segmentation label set (a network's output classes or a dataset's label ids) to the three
+// classes of the probabilistic model, Table 3.1: static, (potentially) dynamic, invalid. The 19 Cityscapes
+// trainId classes are built in; other label sets come from ini files (config/semantic/*.ini):
+//
+//   [SemanticClassMap]
+//   name       = cityscapes
+//   numClasses = 19
+//   unlabeled  = invalid          ; group of label values >= numClasses in label images (e.g. 255 = ignore)
+//   default    = static           ; optional: group of classes without a classN key (else every class needs one)
+//   class0     = road static      ; classN = <name> <static|dynamic|invalid>
+//   ...
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "pslam/datasets/Rawlog.h"
+
+namespace mrpt::config {
+class CConfigFileBase;
+}
+
+namespace pslam::priors {
+
+using datasets::SemanticClass;
+inline constexpr int kNumSemanticGroups = 3;
+
+/// "static" | "dynamic" | "invalid" (case-insensitive); throws pslam::Error naming `context`.
+SemanticClass parseSemanticClass(const std::string& text, const std::string& context);
+std::string toString(SemanticClass c);
+
+struct SemanticClassMap {
+  std::string name;
+  std::vector<std::string> classNames;  ///< index = label value / network output channel
+  std::vector<SemanticClass> groups;    ///< same size as classNames
+  SemanticClass unlabeled = SemanticClass::Invalid;
+
+  /// Table 3.1 for the 19 Cityscapes classes in trainId order (road ... bicycle), 255 -> invalid.
+  static SemanticClassMap cityscapes();
+  /// Reads an ini file with the [SemanticClassMap] section above. Throws pslam::Error naming file and key.
+  static SemanticClassMap loadFromFile(const std::filesystem::path& iniPath);
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  /// Non-empty, sizes consistent, at most 256 classes (8-bit label images).
+  void check() const;
+
+  int numClasses() const { return static_cast<int>(classNames.size()); }
+  /// Group of a label value; values outside [0, numClasses) map to `unlabeled`.
+  SemanticClass groupOf(int label) const;
+  /// 1x256 CV_8U lookup table label -> group index (for cv::LUT on 8-bit label images).
+  cv::Mat groupLookupTable() const;
+};
+
+}  // namespace pslam::priors
