@@ -1,0 +1,98 @@
+#include "pslam/datasets/Camera.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include <mrpt/config/CConfigFile.h>
+
+#include "pslam/core/Error.h"
+
+namespace fs = std::filesystem;
+
+namespace pslam::datasets {
+
+mrpt::img::TCamera makePinholeCamera(uint32_t width, uint32_t height, double fx, double fy, double cx, double cy,
+                                     const std::vector<double>& distortion) {
+  const std::string ctx = "camera intrinsics";
+  require(width > 0 && height > 0, ctx, "image size must be positive");
+  require(std::isfinite(fx) && std::isfinite(fy) && fx > 0 && fy > 0, ctx, "fx and fy must be positive");
+  require(std::isfinite(cx) && std::isfinite(cy), ctx, "cx and cy must be finite");
+  require(distortion.size() <= 5, ctx, "at most 5 distortion coefficients (k1 k2 p1 p2 k3)");
+  mrpt::img::TCamera cam;
+  cam.ncols = width;
+  cam.nrows = height;
+  cam.fx(fx);
+  cam.fy(fy);
+  cam.cx(cx);
+  cam.cy(cy);
+  bool any = false;
+  for (std::size_t k = 0; k < distortion.size(); ++k) {
+    require(std::isfinite(distortion[k]), ctx, "distortion coefficient is NaN or Inf");
+    cam.dist[k] = distortion[k];
+    any = any || distortion[k] != 0.0;
+  }
+  cam.distortion = any ? mrpt::img::DistortionModel::plumb_bob : mrpt::img::DistortionModel::none;
+  return cam;
+}
+
+mrpt::img::TCamera loadCameraIni(const fs::path& iniFile, const std::string& section) {
+  std::error_code ec;
+  if (!fs::is_regular_file(iniFile, ec)) throw Error(iniFile.string() + ": camera ini file not found");
+  mrpt::config::CConfigFile cfg(iniFile.string());
+  if (!cfg.sectionExists(section)) throw Error(iniFile.string() + ": no section [" + section + "]");
+  mrpt::img::TCamera cam;
+  try {
+    cam.loadFromConfigFile(section, cfg);
+  } catch (const std::exception& e) {
+    std::string msg = e.what();
+    // MRPT exceptions carry a multi-line trace; the first line that names the key is enough.
+    const auto nl = msg.find('\n');
+    if (nl != std::string::npos) msg = msg.substr(0, nl);
+    throw Error(iniFile.string() + ": [" + section + "]: invalid TCamera block (keys resolution, fx, fy, cx, cy, " +
+                "dist, distortion_model): " + msg);
+  }
+  const std::string ctx = iniFile.string() + ": [" + section + "]";
+  require(cam.ncols > 0 && cam.nrows > 0, ctx, "resolution must be positive");
+  require(std::isfinite(cam.fx()) && cam.fx() > 0, ctx, "fx must be positive");
+  require(std::isfinite(cam.fy()) && cam.fy() > 0, ctx, "fy must be positive");
+  require(std::isfinite(cam.cx()) && std::isfinite(cam.cy()), ctx, "cx/cy must be finite");
+  return cam;
+}
+
+std::optional<double> loadFrameRateFromIni(const fs::path& iniFile, const std::string& section) {
+  std::error_code ec;
+  if (!fs::is_regular_file(iniFile, ec)) throw Error(iniFile.string() + ": camera ini file not found");
+  mrpt::config::CConfigFile cfg(iniFile.string());
+  if (!cfg.keyExists(section, "frame_rate_hz")) return std::nullopt;
+  const double rate = cfg.read_double(section, "frame_rate_hz", 0.0);
+  require(std::isfinite(rate) && rate > 0, iniFile.string() + ": [" + section + "] frame_rate_hz", "must be positive");
+  return rate;
+}
+
+std::optional<std::string> tumCameraFromFolderName(const std::string& folderName) {
+  std::string s = folderName;
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (const char* k : {"1", "2", "3"}) {
+    if (s.find(std::string("freiburg") + k) != std::string::npos || s.find(std::string("fr") + k + "_") != std::string::npos ||
+        s.find(std::string("fr") + k + "/") != std::string::npos)
+      return std::string("fr") + k;
+  }
+  return std::nullopt;
+}
+
+mrpt::img::TCamera tumCamera(const std::string& name) {
+  std::string n = name;
+  std::transform(n.begin(), n.end(), n.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (n.rfind("freiburg", 0) == 0) n = "fr" + n.substr(8);
+  // Published by TUM (vision.in.tum.de, "file formats / intrinsic camera calibration"); distortion in the
+  // OpenCV order d0..d4 = k1 k2 p1 p2 k3, which is also the order of MRPT's TCamera::dist.
+  if (n == "fr1") return makePinholeCamera(640, 480, 517.3, 516.5, 318.6, 255.3, {0.2624, -0.9531, -0.0054, 0.0026, 1.1633});
+  if (n == "fr2") return makePinholeCamera(640, 480, 520.9, 521.0, 325.1, 249.7, {0.2312, -0.7849, -0.0033, -0.0001, 0.9172});
+  if (n == "fr3") return makePinholeCamera(640, 480, 535.4, 539.2, 320.1, 247.6);
+  throw Error("TUM camera '" + name + "': unknown (use fr1, fr2 or fr3)");
+}
+
+mrpt::img::TCamera iclNuimCamera() { return makePinholeCamera(640, 480, 481.20, 480.00, 319.50, 239.50); }
+
+}  // namespace pslam::datasets
