@@ -130,26 +130,58 @@ void OrbExtractor::detectLevel(int level, std::vector<cv::KeyPoint>& out) const 
   std::vector<cv::KeyPoint> candidates;
   candidates.reserve(static_cast<size_t>(featuresPerLevel_[level]) * 10);
   std::vector<cv::KeyPoint> cellKeys;
-  for (int i = 0; i < nRows; ++i) {
-    const int iniY = minBorderY + i * hCell;
-    if (iniY >= maxBorderY - 3) continue;
-    // +6: FAST cannot fire within 3 px of the cell image border; overlapping cells by 6 px makes the
-    // detection areas of neighbouring cells tile the level without gaps or duplicates.
-    const int maxY = std::min(iniY + hCell + 6, maxBorderY);
-    for (int j = 0; j < nCols; ++j) {
-      const int iniX = minBorderX + j * wCell;
-      if (iniX >= maxBorderX - 3) continue;
-      const int maxX = std::min(iniX + wCell + 6, maxBorderX);
-      const cv::Mat cell = img(cv::Range(iniY, maxY), cv::Range(iniX, maxX));
-      cellKeys.clear();
-      cv::FAST(cell, cellKeys, params_.iniThFAST, true);
-      if (cellKeys.empty()) cv::FAST(cell, cellKeys, params_.minThFAST, true);  // weak-texture cell fallback
-      for (cv::KeyPoint kp : cellKeys) {
-        kp.pt.x += static_cast<float>(j * wCell);  // relative to (minBorderX, minBorderY)
-        kp.pt.y += static_cast<float>(i * hCell);
-        candidates.push_back(kp);
-      }
+  // Cell (i, j) covers img rows [iniY, maxY) and cols [iniX, maxX); +6: FAST cannot fire within 3 px of the
+  // image it is given, so overlapping cells by 6 px makes the detection areas of neighbouring cells tile the
+  // level without gaps or duplicates. In coordinates relative to (minBorderX, minBorderY) the detection area of
+  // cell (i, j) is [j wCell + 3, (j+1) wCell + 3) x [i hCell + 3, (i+1) hCell + 3).
+  auto cellImage = [&](int i, int j) {
+    const int iniY = minBorderY + i * hCell, iniX = minBorderX + j * wCell;
+    if (iniY >= maxBorderY - 3 || iniX >= maxBorderX - 3) return cv::Mat();
+    const int maxY = std::min(iniY + hCell + 6, maxBorderY), maxX = std::min(iniX + wCell + 6, maxBorderX);
+    return img(cv::Range(iniY, maxY), cv::Range(iniX, maxX));
+  };
+  auto addCellKeys = [&](int i, int j) {
+    for (cv::KeyPoint kp : cellKeys) {
+      kp.pt.x += static_cast<float>(j * wCell);  // relative to (minBorderX, minBorderY)
+      kp.pt.y += static_cast<float>(i * hCell);
+      candidates.push_back(kp);
     }
+  };
+
+  if (params_.literalCellFast) {
+    // ORB-SLAM verbatim: one FAST call per cell at iniThFAST, again at minThFAST if it found nothing.
+    for (int i = 0; i < nRows; ++i)
+      for (int j = 0; j < nCols; ++j) {
+        const cv::Mat cell = cellImage(i, j);
+        if (cell.empty()) continue;
+        cellKeys.clear();
+        cv::FAST(cell, cellKeys, params_.iniThFAST, true);
+        if (cellKeys.empty()) cv::FAST(cell, cellKeys, params_.minThFAST, true);  // weak-texture cell fallback
+        addCellKeys(i, j);
+      }
+  } else {
+    // Same per-cell thresholds with one FAST call over the level at iniThFAST (the FAST score does not depend
+    // on the threshold, so a cell's corners at iniThFAST are the same); only cells left empty are re-run at
+    // minThFAST. Difference to ORB-SLAM: non-maximum suppression also acts across cell borders.
+    cellKeys.clear();
+    cv::FAST(img(cv::Range(minBorderY, maxBorderY), cv::Range(minBorderX, maxBorderX)), cellKeys,
+             params_.iniThFAST, true);
+    std::vector<int> perCell(static_cast<size_t>(nRows) * nCols, 0);
+    for (const cv::KeyPoint& kp : cellKeys) {
+      const int j = std::clamp((static_cast<int>(kp.pt.x) - 3) / wCell, 0, nCols - 1);
+      const int i = std::clamp((static_cast<int>(kp.pt.y) - 3) / hCell, 0, nRows - 1);
+      ++perCell[static_cast<size_t>(i) * nCols + j];
+    }
+    candidates = cellKeys;
+    for (int i = 0; i < nRows; ++i)
+      for (int j = 0; j < nCols; ++j) {
+        if (perCell[static_cast<size_t>(i) * nCols + j] > 0) continue;
+        const cv::Mat cell = cellImage(i, j);
+        if (cell.empty()) continue;
+        cellKeys.clear();
+        cv::FAST(cell, cellKeys, params_.minThFAST, true);
+        addCellKeys(i, j);
+      }
   }
 
   out = distributeQuadtree(candidates, minBorderX, maxBorderX, minBorderY, maxBorderY, featuresPerLevel_[level]);

@@ -15,6 +15,7 @@ void OrbParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, con
   patchSize = cfg.read_int(section, "patchSize", patchSize);
   cellSize = cfg.read_int(section, "cellSize", cellSize);
   levelBudgetByArea = cfg.read_bool(section, "levelBudgetByArea", levelBudgetByArea);
+  literalCellFast = cfg.read_bool(section, "literalCellFast", literalCellFast);
   check();
 }
 
@@ -28,6 +29,7 @@ void OrbParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::
   cfg.write(section, "patchSize", patchSize);
   cfg.write(section, "cellSize", cellSize);
   cfg.write(section, "levelBudgetByArea", levelBudgetByArea);
+  cfg.write(section, "literalCellFast", literalCellFast);
 }
 
 void OrbParams::check() const {

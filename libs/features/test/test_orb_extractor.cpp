@@ -7,6 +7,7 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include <mrpt/config/CConfigFileMemory.h>
 #include <opencv2/imgproc.hpp>
@@ -297,4 +298,24 @@ TEST(OrbParams, ConfigRoundTripAndChecksNameTheKey) {
   mrpt::config::CConfigFileMemory badCfg;
   badCfg.write("ORB", "nLevels", -3);
   EXPECT_THROW(q.loadFromConfigFile(badCfg, "ORB"), pslam::Error);
+}
+
+TEST(OrbExtractor, SingleFastPassAgreesWithOrbSlamPerCellFast) {
+  // The fast path applies the same per-cell thresholds; only non-maximum suppression across cell borders
+  // differs, so nearly all candidates, and after the quadtree nearly all keypoints, coincide.
+  const cv::Mat img = texturedImage(640, 480, 8);
+  OrbParams literal;
+  literal.literalCellFast = true;
+  OrbExtractor a, b(literal);
+  std::vector<cv::KeyPoint> ka, kb;
+  cv::Mat da, db;
+  a.extract(img, ka, da);
+  b.extract(img, kb, db);
+  std::set<std::tuple<int, int, int>> inB;
+  for (const auto& k : kb) inB.insert({k.octave, int(std::lround(k.pt.x * 100)), int(std::lround(k.pt.y * 100))});
+  size_t common = 0;
+  for (const auto& k : ka) common += inB.count({k.octave, int(std::lround(k.pt.x * 100)), int(std::lround(k.pt.y * 100))});
+  std::cout << "fast path " << ka.size() << ", literal " << kb.size() << ", common " << common << "\n";
+  EXPECT_NEAR(static_cast<double>(ka.size()), static_cast<double>(kb.size()), 0.02 * kb.size());
+  EXPECT_GE(common, 0.9 * kb.size());
 }

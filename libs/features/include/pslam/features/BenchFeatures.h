@@ -24,7 +24,9 @@ struct BenchFeaturesOptions {
 };
 
 struct BenchFeaturesResult {
-  StageTimings timings;             ///< stages: pyramid, fast+quadtree, orientation, descriptors, total, opencv_orb
+  /// Wall-clock stages pyramid, fast+quadtree, orientation, descriptors, total, opencv_orb; process CPU time
+  /// total_cpu, opencv_orb_cpu (robust to a loaded machine).
+  StageTimings timings;
   std::vector<std::string> images;
   double meanKeypoints = 0;         ///< OrbExtractor keypoints per image
   double meanKeypointsOpenCv = 0;   ///< cv::ORB keypoints per image

@@ -28,6 +28,9 @@ struct OrbParams {
   /// Per-level budget: false = ORB-SLAM's geometric series with ratio 1/scaleFactor; true = ratio
   /// 1/scaleFactor^2 (strictly proportional to the level area).
   bool levelBudgetByArea = false;
+  /// true: one cv::FAST call per cell exactly as ORB-SLAM (reference, slower); false: one FAST call per level
+  /// at iniThFAST, per-cell fallback to minThFAST only in cells without a corner (same thresholds per cell).
+  bool literalCellFast = false;
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
   void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
