@@ -9,6 +9,7 @@
 #include <mrpt/config/CConfigFileMemory.h>
 
 #include "pslam/core/Error.h"
+#include "pslam/landmarks/ActivationSimulation.h"
 #include "pslam/landmarks/KeypointModel.h"
 
 using namespace pslam::landmarks;
@@ -308,5 +309,31 @@ TEST(KeypointModelParams, LoadsTable31WithInfinityAndChecksKeys) {
     FAIL() << "expected an error";
   } catch (const pslam::Error& e) {
     EXPECT_NE(std::string(e.what()).find("psiMin"), std::string::npos);
+  }
+}
+
+// The same experiment through the simulation used for doc/img/semantic_fig34.png, over several seeds.
+TEST(ActivationSimulation, Figure34OrderHoldsOverSeeds) {
+  const KeypointModel model{KeypointModelParams{}};
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    SCOPED_TRACE(seed);
+    ActivationScenario st, dy, bad;
+    st.cnn = {0.9, 0.05, 0.05};
+    dy.cnn = {0.05, 0.9, 0.05};
+    bad.cnn = st.cnn;
+    bad.consistent = false;
+    std::mt19937 r1(seed), r2(seed), r3(seed);
+    const auto sSteps = simulateActivation(model, st, r1);
+    const auto dSteps = simulateActivation(model, dy, r2);
+    const auto bSteps = simulateActivation(model, bad, r3);
+    ASSERT_EQ(sSteps.size(), 31u);
+    const int ns = firstActiveObservation(sSteps), nd = firstActiveObservation(dSteps);
+    EXPECT_GE(ns, 0);
+    EXPECT_GT(nd, ns);
+    EXPECT_GE(nd, 3);
+    EXPECT_EQ(firstActiveObservation(bSteps), -1);
+    // With consistent measurements the inlier ratio of the dynamic-prior point rises monotonically-ish:
+    // its last value is well above its first.
+    EXPECT_GT(dSteps.back().inlierRatio, dSteps.front().inlierRatio + 0.2);
   }
 }

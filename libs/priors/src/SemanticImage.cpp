@@ -28,29 +28,34 @@ cv::Mat groupProbabilitiesFromScores(const cv::Mat& scores, const SemanticClassM
   if (C != map.numClasses())
     throw Error("groupProbabilitiesFromScores: network has " + std::to_string(C) + " output classes, class map '" +
                 map.name + "' has " + std::to_string(map.numClasses()));
-  const std::size_t plane = std::size_t(H) * W;
-  const float* data = scores.ptr<float>();
-  cv::Mat probs(H, W, CV_32FC3, cv::Scalar::all(0));
-  auto* out = probs.ptr<cv::Vec3f>();
-  std::vector<int> group(C);
-  for (int c = 0; c < C; ++c) group[c] = static_cast<int>(map.groups[c]);
-  std::vector<double> e(C);
-  for (std::size_t i = 0; i < plane; ++i) {
-    double maxScore = -std::numeric_limits<double>::infinity();
-    for (int c = 0; c < C; ++c) maxScore = std::max(maxScore, double(data[c * plane + i]));
-    double sum = 0;
-    for (int c = 0; c < C; ++c) {
-      const double s = data[c * plane + i];
-      // Softmax shifted by the maximum score (no overflow); probabilities used as they are otherwise.
-      e[c] = applySoftmax ? std::exp(s - maxScore) : std::max(0.0, s);
-      sum += e[c];
+  // Whole-plane OpenCV operations (vectorized): softmax shifted by the per-pixel maximum score, so exp never
+  // overflows; without softmax the (non-negative) outputs are only normalized.
+  std::vector<cv::Mat> planes(C);
+  for (int c = 0; c < C; ++c)
+    planes[c] = cv::Mat(H, W, CV_32F, const_cast<float*>(scores.ptr<float>()) + std::size_t(c) * H * W);
+  cv::Mat maxScore = planes[0].clone();
+  for (int c = 1; c < C; ++c) cv::max(maxScore, planes[c], maxScore);
+  std::vector<cv::Mat> group(kNumSemanticGroups);
+  for (auto& g : group) g = cv::Mat(H, W, CV_32F, cv::Scalar(0));
+  cv::Mat sum(H, W, CV_32F, cv::Scalar(0)), e;
+  for (int c = 0; c < C; ++c) {
+    if (applySoftmax) {
+      cv::subtract(planes[c], maxScore, e);
+      cv::exp(e, e);
+    } else {
+      cv::max(planes[c], 0.0, e);
     }
-    if (!std::isfinite(sum) || !(sum > 0))
-      throw Error("groupProbabilitiesFromScores: non-finite or all-zero scores at pixel " + std::to_string(i));
-    cv::Vec3f p(0, 0, 0);
-    for (int c = 0; c < C; ++c) p[group[c]] += static_cast<float>(e[c] / sum);
-    out[i] = p;
+    sum += e;
+    group[static_cast<int>(map.groups[c])] += e;
   }
+  if (!cv::checkRange(sum) || !cv::checkRange(maxScore))
+    throw Error("groupProbabilitiesFromScores: non-finite network scores");
+  double minSum = 0;
+  cv::minMaxLoc(sum, &minSum);
+  if (!(minSum > 0)) throw Error("groupProbabilitiesFromScores: all-zero class scores at some pixel");
+  for (auto& g : group) cv::divide(g, sum, g);
+  cv::Mat probs;
+  cv::merge(group, probs);
   return probs;
 }
 
