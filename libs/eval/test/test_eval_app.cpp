@@ -1,0 +1,151 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <unistd.h>
+
+#include <mrpt/config/CConfigFileMemory.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "TestUtil.h"
+#include "pslam/core/Error.h"
+#include "pslam/eval/EvalApp.h"
+
+using namespace pslam;
+using namespace pslam::eval;
+using pslam::eval::test::makeSpiral;
+using pslam::eval::test::TempDir;
+
+namespace {
+// Estimate = GT at scale 1/3 in another frame, with every second pose dropped and stamps jittered by 3 ms.
+Trajectory monocularEstimate(const Trajectory& gt) {
+  Trajectory est;
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  for (std::size_t k = 0; k < gt.size(); k += 2) {
+    StampedPose p = gt[k];
+    p.timestamp += 0.003;
+    p.position = R * p.position / 3.0 + Eigen::Vector3d(1, 2, 3);
+    p.orientation = Eigen::Quaterniond(R) * p.orientation;
+    est.push_back(p);
+  }
+  return est;
+}
+}  // namespace
+
+TEST(EvalApp, EvaluatesFilesAndWritesJsonAndPlots) {
+  TempDir d("app");
+  const Trajectory gt = makeSpiral(200);
+  writeTumTrajectory(d.path / "gt.txt", gt);
+  writeTumTrajectory(d.path / "est.txt", monocularEstimate(gt));
+  const EvalApp app(EvalOptions{});  // defaults: nearest 0.02 s, Sim(3), RPE 1 frame
+  const EvalResult r = app.run(d.path / "gt.txt", d.path / "est.txt");
+  EXPECT_EQ(r.gtAssociated.size(), 100u);
+  EXPECT_NEAR(r.alignment.scale, 3.0, 1e-6);  // TUM files keep 9 significant digits
+  EXPECT_LT(r.ate.stats.rmse, 1e-6);
+  ASSERT_TRUE(r.rpe && r.rotationError);
+  EXPECT_LT(r.rotationError->stats.mean, 1e-4);
+  const std::string table = app.formatTable(r);
+  EXPECT_NE(table.find("ATE [m]"), std::string::npos);
+  EXPECT_NE(table.find("scale 3.000000"), std::string::npos) << table;
+
+  app.writeJson(r, d.path / "out" / "res.json");
+  std::ifstream jf(d.path / "out" / "res.json");
+  const auto j = nlohmann::json::parse(jf);
+  EXPECT_EQ(j["poses"]["pairs"].get<int>(), 100);
+  EXPECT_NEAR(j["alignment"]["scale"].get<double>(), 3.0, 1e-6);
+  EXPECT_EQ(j["options"]["alignment"].get<std::string>(), "sim3");
+
+  const auto pngs = app.writePlots(r, d.path / "plots");
+  ASSERT_EQ(pngs.size(), 4u);
+  for (const auto& p : pngs) EXPECT_FALSE(cv::imread(p.string()).empty()) << p;
+}
+
+TEST(EvalApp, SE3LeavesTheScaleErrorAndKittiFilesAreIndexed) {
+  TempDir d("app_se3");
+  const Trajectory gt = makeSpiral(50);
+  // KITTI files (no stamps): association falls back to the index.
+  const auto writeKitti = [&](const std::filesystem::path& p, const Trajectory& t, double scale) {
+    std::ofstream f(p);
+    f.precision(12);
+    for (const auto& s : t) {
+      const Eigen::Matrix3d R = s.orientation.toRotationMatrix();
+      const Eigen::Vector3d x = s.position * scale;
+      for (int r = 0; r < 3; ++r) f << R(r, 0) << " " << R(r, 1) << " " << R(r, 2) << " " << x(r) << (r < 2 ? " " : "\n");
+    }
+  };
+  writeKitti(d.path / "gt.txt", gt, 1.0);
+  writeKitti(d.path / "est.txt", gt, 0.5);
+  EvalOptions o;
+  o.alignment = AlignmentMode::SE3;
+  const EvalResult r = EvalApp(o).run(d.path / "gt.txt", d.path / "est.txt");
+  EXPECT_EQ(r.ruleUsed, AssociationRule::ByIndex);
+  EXPECT_EQ(r.gtAssociated.size(), 50u);
+  EXPECT_GT(r.ate.stats.rmse, 0.1);
+  o.alignment = AlignmentMode::Sim3;
+  EXPECT_LT(EvalApp(o).run(d.path / "gt.txt", d.path / "est.txt").ate.stats.rmse, 1e-9);
+}
+
+TEST(EvalApp, OptionsFromConfigAndTheirChecksNameTheKey) {
+  mrpt::config::CConfigFileMemory cfg;
+  cfg.write("slam_eval", "association", "tum");
+  cfg.write("slam_eval", "alignment", "se3");
+  cfg.write("slam_eval", "rpe_delta", 2.0);
+  cfg.write("slam_eval", "rpe_delta_unit", "m");
+  EvalOptions o;
+  o.loadFromConfigFile(cfg, "slam_eval");
+  EXPECT_EQ(o.association.rule, AssociationRule::OneToOneGreedy);
+  EXPECT_EQ(o.alignment, AlignmentMode::SE3);
+  EXPECT_EQ(o.rpeOptions.unit, DeltaUnit::Meters);
+  // Round trip.
+  mrpt::config::CConfigFileMemory saved;
+  o.saveToConfigFile(saved, "s");
+  EvalOptions back;
+  back.loadFromConfigFile(saved, "s");
+  EXPECT_EQ(back.toJson(), o.toJson());
+
+  const auto expectKey = [](const std::string& key, const std::string& value) {
+    mrpt::config::CConfigFileMemory c;
+    c.write("s", key, value);
+    EvalOptions x;
+    try {
+      x.loadFromConfigFile(c, "s");
+      ADD_FAILURE() << key;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(key == "alignment" ? "alignment" : key), std::string::npos) << e.what();
+    }
+  };
+  expectKey("max_time_difference", "-1");
+  expectKey("rpe_delta", "0");
+  expectKey("rpe_delta", "1.5");  // frames must be an integer
+  expectKey("align_first_n", "-3");
+  expectKey("alignment", "affine");
+  expectKey("dr_tau", "0");
+}
+
+TEST(EvalApp, BadInputsGiveClearErrors) {
+  TempDir d("app_bad");
+  const Trajectory gt = makeSpiral(20);
+  writeTumTrajectory(d.path / "gt.txt", gt);
+  const EvalApp app(EvalOptions{});
+  EXPECT_THROW(app.run(d.path / "missing.txt", d.path / "gt.txt"), Error);
+  // Too few pairs for an alignment.
+  writeTumTrajectory(d.path / "two.txt", Trajectory(gt.begin(), gt.begin() + 2));
+  try {
+    app.run(d.path / "gt.txt", d.path / "two.txt");
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("at least 3"), std::string::npos) << e.what();
+  }
+  // No overlap in time.
+  Trajectory late = gt;
+  for (auto& p : late) p.timestamp += 1000.0;
+  writeTumTrajectory(d.path / "late.txt", late);
+  EXPECT_THROW(app.run(d.path / "gt.txt", d.path / "late.txt"), Error);
+  // Empty estimate.
+  std::ofstream(d.path / "empty.txt") << "# nothing\n";
+  EXPECT_THROW(app.run(d.path / "gt.txt", d.path / "empty.txt"), Error);
+  // DR needs both inputs.
+  EvalOptions o;
+  o.depthSamples = d.path / "depths.txt";
+  EXPECT_THROW(EvalApp{o}, Error);
+}
