@@ -18,11 +18,12 @@ constexpr const char* kClassNames[kNumSemanticClasses] = {"static", "dynamic", "
 // name the key when the text is not a number.
 double readCount(const mrpt::config::CConfigFileBase& cfg, const std::string& section, const std::string& key,
                  double fallback) {
-  const std::string text = cfg.read_string(section, key, "");
+  // read_string keeps inline comments ("5  ; Table 3.1"): the first word is the value.
+  const std::string text = cfg.read_string_first_word(section, key, "");
   if (text.empty()) return fallback;
   char* end = nullptr;
   const double value = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0')
+  if (end == text.c_str() || *end != '\0' || std::isnan(value))
     throw Error("[" + section + "] " + key + ": not a number: '" + text + "'");
   return value;
 }

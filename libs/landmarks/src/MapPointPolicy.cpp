@@ -29,7 +29,7 @@ std::string toString(MapPointModel model) {
 }
 
 void MapPointPolicyParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  model = parseMapPointModel(cfg.read_string(section, "model", toString(model)));
+  model = parseMapPointModel(cfg.read_string_first_word(section, "model", toString(model)));
   minFoundRatio = cfg.read_double(section, "minFoundRatio", minFoundRatio);
   minObservations = static_cast<std::uint32_t>(cfg.read_int(section, "minObservations", int(minObservations)));
   observationWindow = cfg.read_int(section, "observationWindow", int(observationWindow));

@@ -1,9 +1,13 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include <mrpt/config/CConfigFile.h>
 #include <mrpt/config/CConfigFileMemory.h>
 
 #include "pslam/core/Error.h"
 #include "pslam/landmarks/MapPointPolicy.h"
+#include "pslam/landmarks/MatchingAccuracy.h"
 
 using namespace pslam::landmarks;
 
@@ -62,4 +66,25 @@ TEST(MapPointPolicy, MaskingDeactivatesDynamicAndProbabilisticUsesInlierRatio) {
   for (int i = 0; i < 120; ++i) model.updateDepth(moving.model, i % 2 ? 3.0 : 7.0, 1e-4, 1.0);
   EXPECT_TRUE(probabilistic->shouldCull(moving, 0));
   EXPECT_FALSE(probabilistic->shouldCull(car, 0));
+}
+
+// The shipped config reproduces the defaults (Table 3.1, Table 3.2).
+TEST(MapPointPolicy, ShippedKeypointModelIniLoads) {
+  mrpt::config::CConfigFile cfg(std::string(PRIORSLAM_SOURCE_DIR) + "/config/semantic/keypoint_model.ini");
+  KeypointModelParams k;
+  k.loadFromConfigFile(cfg, "KeypointModel");
+  const KeypointModelParams defaults;
+  EXPECT_EQ(k.priorA, defaults.priorA);
+  EXPECT_EQ(k.priorB[0], defaults.priorB[0]);
+  EXPECT_EQ(k.priorB[1], defaults.priorB[1]);
+  EXPECT_TRUE(std::isinf(k.priorB[2]));
+  EXPECT_EQ(k.psiMin, 0.6);
+  EXPECT_EQ(k.initialCount, defaults.initialCount);
+  MatchingAccuracyParams m;
+  m.loadFromConfigFile(cfg, "MatchingAccuracy");
+  EXPECT_EQ(m.hammingMaxDistance, 100);
+  MapPointPolicyParams p;
+  p.loadFromConfigFile(cfg, "MapPoints");
+  EXPECT_EQ(p.model, MapPointModel::Probabilistic);
+  EXPECT_EQ(p.maskingDynamicThreshold, 0.5);
 }

@@ -67,13 +67,15 @@ void SemanticClassMap::loadFromConfigFile(const mrpt::config::CConfigFileBase& c
   name = cfg.read_string(section, "name", "");
   const int n = cfg.read_int(section, "numClasses", 0);
   if (n <= 0 || n > 256) throw Error(ctx + " numClasses: must be in [1, 256]");
-  unlabeled = parseSemanticClass(cfg.read_string(section, "unlabeled", "invalid"), ctx + " unlabeled");
-  const std::string defaultText = cfg.read_string(section, "default", "");
+  unlabeled = parseSemanticClass(cfg.read_string_first_word(section, "unlabeled", "invalid"), ctx + " unlabeled");
+  const std::string defaultText = cfg.read_string_first_word(section, "default", "");
   classNames.assign(n, "");
   groups.assign(n, SemanticClass::Static);
   for (int i = 0; i < n; ++i) {
     const std::string key = "class" + std::to_string(i);
-    const std::string value = cfg.read_string(section, key, "");
+    std::string value = cfg.read_string(section, key, "");
+    value = value.substr(0, value.find(';'));  // inline comment
+    value.erase(value.find_last_not_of(" \t") + 1);
     if (value.empty()) {
       if (defaultText.empty()) throw Error(ctx + " " + key + ": missing (and no 'default' group given)");
       classNames[i] = "class" + std::to_string(i);
