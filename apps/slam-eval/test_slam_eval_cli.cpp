@@ -1,0 +1,78 @@
+// e2e: runs the slam-eval executable as a user would (exit codes, one-line errors, outputs).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <unistd.h>
+
+#include <sys/wait.h>
+
+#include "pslam/core/Trajectory.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+const fs::path kExe = fs::path(PRIORSLAM_BINARY_DIR) / "bin" / "slam-eval";
+
+struct CliRun {
+  int exitCode;
+  std::string output;  // stdout + stderr
+};
+
+CliRun runCli(const std::string& args) {
+  const std::string cmd = kExe.string() + " " + args + " 2>&1";
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(cmd.c_str(), "r"), pclose);
+  std::string out;
+  std::array<char, 4096> buf{};
+  while (fgets(buf.data(), buf.size(), pipe.get())) out += buf.data();
+  const int status = pclose(pipe.release());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+pslam::Trajectory spiral(std::size_t n, double scale) {
+  pslam::Trajectory t;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double s = 0.1 * static_cast<double>(k);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = scale * Eigen::Vector3d(std::cos(s), std::sin(s), 0.1 * s);
+    T.linear() = Eigen::AngleAxisd(s, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    t.emplace_back(10.0 + static_cast<double>(k) / 30.0, T);
+  }
+  return t;
+}
+}  // namespace
+
+TEST(SlamEvalCli, EvaluatesAndWritesOutputs) {
+  ASSERT_TRUE(fs::exists(kExe)) << kExe;
+  const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  pslam::writeTumTrajectory(d / "gt.txt", spiral(90, 1.0));
+  pslam::writeTumTrajectory(d / "est.txt", spiral(90, 0.25));
+  const CliRun r = runCli((d / "gt.txt").string() + " " + (d / "est.txt").string() + " --json " +
+                       (d / "r.json").string() + " --plot-dir " + (d / "plots").string());
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("scale 4.000000"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(d / "r.json"));
+  EXPECT_TRUE(fs::exists(d / "plots" / "eval_top_view.png"));
+  // SE(3) on the same files keeps the scale error.
+  const CliRun se3 = runCli((d / "gt.txt").string() + " " + (d / "est.txt").string() + " --align se3");
+  EXPECT_EQ(se3.exitCode, 0);
+  EXPECT_NE(se3.output.find("scale 1.000000"), std::string::npos) << se3.output;
+  fs::remove_all(d);
+}
+
+TEST(SlamEvalCli, BadInputIsOneErrorLineAndExitCodeOne) {
+  const CliRun missing = runCli("/nonexistent/gt.txt /nonexistent/est.txt");
+  EXPECT_EQ(missing.exitCode, 1);
+  EXPECT_EQ(missing.output.rfind("slam-eval: error: /nonexistent/gt.txt", 0), 0u) << missing.output;
+  EXPECT_EQ(std::count(missing.output.begin(), missing.output.end(), '\n'), 1) << missing.output;
+  const CliRun badAlign = runCli("a b --align affine");
+  EXPECT_EQ(badAlign.exitCode, 1);
+  EXPECT_NE(badAlign.output.find("alignment 'affine'"), std::string::npos) << badAlign.output;
+}
