@@ -1,0 +1,56 @@
+#pragma once
+// DSO-style selection of direct (photometric) points (thesis §2.3.2.3, Algorithm 3): pixels with a large
+// intensity gradient relative to their neighbourhood, chosen block by block so that they cover the image,
+// with lower thresholds for larger blocks so that weak-gradient regions still contribute.
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace mrpt::config {
+class CConfigFileBase;
+}
+
+namespace pslam::features {
+
+struct DirectSelectorParams {
+  int targetPoints = 2000;       ///< wanted number of points (N_F^Direct; Table 3.2 uses 5000)
+  int initialBlockSize = 4;      ///< W of Algorithm 3 for the first attempt (>= 2); adapted to reach targetPoints
+  float thresholdOffset = 7.f;   ///< delta_W: gradient (grey levels/px) above the block mean needed at size W
+  float thresholdDecay = 0.75f;  ///< delta_2W = decay * delta_W, delta_4W = decay^2 * delta_W
+  int adaptIterations = 3;       ///< re-runs with W rescaled by sqrt(found/target) while off by > 15 %; the
+                                 ///< W whose count is closest to the target is kept
+  int border = 4;                ///< pixels kept free at the image border (photometric pattern support)
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  void check() const;
+};
+
+struct DirectPoint {
+  cv::Point2i pixel;
+  float gradient = 0;  ///< |grad I| (central differences) at the pixel
+  int blockLevel = 0;  ///< 0: chosen in a W block, 1: in a 2W block, 2: in a 4W block
+};
+
+class DirectPointSelector {
+ public:
+  explicit DirectPointSelector(const DirectSelectorParams& params = {});
+  /// Selects points in a grey CV_8UC1 image (colour is converted). Deterministic. Throws pslam::Error on empty
+  /// or non-8-bit input. Points are ordered by block (row-major over the 4W blocks).
+  std::vector<DirectPoint> select(const cv::Mat& image) const;
+  /// One pass of Algorithm 3 with a fixed block size W (exposed for tests).
+  std::vector<DirectPoint> selectWithBlockSize(const cv::Mat& gradient, const cv::Mat& gradientIntegral,
+                                               int blockSize) const;
+  /// |grad I| by central differences (CV_32FC1, 0 on the outermost pixel ring).
+  static cv::Mat gradientMagnitude(const cv::Mat& grey);
+  /// Block size actually used by the last select() call.
+  int lastBlockSize() const { return lastBlockSize_; }
+  const DirectSelectorParams& params() const { return params_; }
+
+ private:
+  DirectSelectorParams params_;
+  mutable int lastBlockSize_ = 0;
+};
+
+}  // namespace pslam::features
