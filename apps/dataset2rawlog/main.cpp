@@ -69,6 +69,11 @@ int main(int argc, char** argv) {
     const auto summary = converter.run();
     if (!quiet) {
       for (const auto& a : summary.assumptions) std::printf("dataset2rawlog: assumed: %s\n", a.c_str());
+      const auto timings = summary.timings.summary();
+      for (auto it = timings.begin(); it != timings.end(); ++it)
+        std::printf("dataset2rawlog: timing %-5s mean %.1f ms/frame, median %.1f, total %.2f s\n", it.key().c_str(),
+                    it.value().at("mean_ms").get<double>(), it.value().at("median_ms").get<double>(),
+                    it.value().at("total_ms").get<double>() / 1000.0);
       std::printf("dataset2rawlog: %s %s\n", summary.format.c_str(), summary.line().c_str());
       if (!summary.groundTruthPath.empty())
         std::printf("dataset2rawlog: ground truth -> %s\n", summary.groundTruthPath.string().c_str());

@@ -9,6 +9,7 @@
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
 #include "pslam/core/Progress.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Camera.h"
 #include "pslam/datasets/Rawlog.h"
@@ -263,8 +264,15 @@ Dataset2RawlogSummary Dataset2RawlogApp::run() {
   RawlogWriter writer(summary.rawlogPath, opt_.imageFormat);
   Progress progress("dataset2rawlog " + name, index.frames.size(), opt_.progress);
   for (std::size_t i = 0; i < index.frames.size(); ++i) {
-    const Frame frame = loadFrame(index, i, color);
-    writer.write(frame);
+    Frame frame;
+    {
+      ScopedStage stage(summary.timings, "read");
+      frame = loadFrame(index, i, color);
+    }
+    {
+      ScopedStage stage(summary.timings, "write");
+      writer.write(frame);
+    }
     summary.depthFrames += frame.hasDepth() ? 1 : 0;
     progress.update(i + 1);
   }

@@ -28,7 +28,7 @@ namespace {
 
 constexpr double kTumDepthUnits = 1.0 / 5000.0;  // TUM RGB-D and ICL-NUIM: 5000 units = 1 m
 
-std::string formatDouble(double v, int precision = 6) {
+std::string formatDouble(double v, int precision = 10) {
   std::ostringstream ss;
   ss.precision(precision);
   ss << v;

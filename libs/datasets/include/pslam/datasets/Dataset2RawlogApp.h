@@ -11,6 +11,7 @@
 
 #include <mrpt/config/CConfigFileBase.h>
 
+#include "pslam/core/StageTimer.h"
 #include "pslam/datasets/DatasetIndex.h"
 
 namespace pslam::datasets {
@@ -63,6 +64,7 @@ struct Dataset2RawlogSummary {
   std::size_t groundTruthPoses = 0;
   double seconds = 0.0;                   ///< wall time of the conversion
   std::vector<std::string> assumptions;
+  StageTimings timings;                   ///< per frame: "read" (decode the dataset files), "write" (rawlog + images)
 
   double framesPerSecond() const { return seconds > 0 ? frames / seconds : 0.0; }
   /// One line: "<n> frames (<d> with depth), <g> GT poses -> <rawlog> in <s> s (<fps> frames/s)".
