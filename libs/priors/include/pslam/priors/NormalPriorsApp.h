@@ -1,0 +1,31 @@
+#pragma once
+// The `normal-priors` tool: copies a rawlog, adding (or replacing) the NORMALS channel of every frame from
+// depth or from a network. The ground-truth file `<stem>_groundtruth.txt` is copied along when present.
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace pslam::priors {
+
+struct NormalPriorsOptions {
+  std::filesystem::path input;   ///< existing rawlog
+  std::filesystem::path output;  ///< new rawlog (its `<stem>_Images/` is written beside it)
+  std::string source = "depth";  ///< "depth" or "network" ("rawlog" would copy the channel unchanged)
+  std::filesystem::path config;  ///< ini with [NormalsFromDepth] / [NormalsFromNetwork]; empty = defaults
+  bool planarOnly = true;        ///< store normals only inside the planar mask (thesis §4.2)
+  bool progress = true;
+};
+
+struct NormalPriorsResult {
+  std::size_t frames = 0;
+  double meanNormalsMs = 0.0;     ///< time per frame of the normal source
+  double meanPlanarShare = 0.0;   ///< mean share of pixels that received a normal
+  nlohmann::json toJson() const;
+};
+
+/// Runs the conversion. Throws pslam::Error naming the file/frame on bad input; the output appears only
+/// when complete (RawlogWriter commits atomically).
+NormalPriorsResult runNormalPriors(const NormalPriorsOptions& options);
+
+}  // namespace pslam::priors

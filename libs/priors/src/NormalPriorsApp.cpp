@@ -1,0 +1,72 @@
+#include "pslam/priors/NormalPriorsApp.h"
+
+#include <chrono>
+#include <fstream>
+#include <sstream>
+
+#include <opencv2/core.hpp>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+#include "pslam/core/Progress.h"
+#include "pslam/datasets/Rawlog.h"
+#include "pslam/priors/NormalSource.h"
+
+namespace fs = std::filesystem;
+
+namespace pslam::priors {
+
+nlohmann::json NormalPriorsResult::toJson() const {
+  return {{"frames", frames}, {"mean_normals_ms", meanNormalsMs}, {"mean_planar_share", meanPlanarShare}};
+}
+
+namespace {
+fs::path groundTruthFor(const fs::path& rawlog) {
+  return rawlog.parent_path() / (rawlog.stem().string() + "_groundtruth.txt");
+}
+}  // namespace
+
+NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
+  require(!o.input.empty() && !o.output.empty(), "normal-priors", "input and output rawlogs are required");
+  require(fs::is_regular_file(o.input), o.input.string(), "input rawlog not found");
+  require(fs::weakly_canonical(o.input) != fs::weakly_canonical(o.output), o.output.string(),
+          "output must differ from the input rawlog");
+  auto source = makeNormalSource(o.source, o.config);
+
+  const std::size_t total = datasets::RawlogReader::countFrames(o.input);
+  datasets::RawlogReader reader(o.input);
+  ensureParentDirectory(o.output);
+  datasets::RawlogWriter writer(o.output);
+  Progress progress("normal-priors", total, o.progress);
+  NormalPriorsResult r;
+  double totalMs = 0.0, planarShareSum = 0.0;
+  datasets::Frame frame;
+  while (reader.next(frame)) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const NormalMap nm = source->compute(frame);
+    totalMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    frame.normals = encodeNormalMap(nm.normals, o.planarOnly ? nm.planarMask : cv::Mat());
+    cv::Mat stored;
+    cv::inRange(frame.normals, cv::Scalar(0, 0, 0), cv::Scalar(0, 0, 0), stored);  // the "no normal" pixels
+    planarShareSum += 1.0 - cv::countNonZero(stored) / static_cast<double>(stored.total());
+    writer.write(frame);
+    ++r.frames;
+    progress.update(r.frames, std::to_string(nm.planeCount) + " planes");
+  }
+  writer.commit();
+  const fs::path gtIn = groundTruthFor(o.input);
+  if (fs::is_regular_file(gtIn)) {
+    std::ifstream in(gtIn, std::ios::binary);
+    std::stringstream content;
+    content << in.rdbuf();
+    writeFileAtomically(groundTruthFor(o.output), [&](std::ostream& os) { os << content.str(); });
+  }
+  if (r.frames > 0) {
+    r.meanNormalsMs = totalMs / r.frames;
+    r.meanPlanarShare = planarShareSum / r.frames;
+  }
+  progress.finish(std::to_string(r.frames) + " frames");
+  return r;
+}
+
+}  // namespace pslam::priors
