@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   app.add_option("--levels", o.orb.nLevels, "pyramid levels")->capture_default_str();
   app.add_option("--scale-factor", o.orb.scaleFactor, "pyramid scale factor")->capture_default_str();
   app.add_flag("--literal-cell-fast", o.orb.literalCellFast, "ORB-SLAM's one FAST call per cell (reference)");
+  app.add_option("--direct", o.directPoints, "also time DSO-style direct point selection with this target (0 = off)")
+      ->capture_default_str();
   app.add_flag("--no-opencv", [&o](int64_t) { o.compareOpenCv = false; }, "do not time cv::ORB");
   app.add_option("--json", json, "also write the summary to this JSON file");
   CLI11_PARSE(app, argc, argv);

@@ -11,6 +11,7 @@
 
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
+#include "pslam/features/DirectPointSelector.h"
 
 namespace pslam::features {
 namespace fs = std::filesystem;
@@ -27,6 +28,7 @@ double processCpuMs() {
 void BenchFeaturesOptions::check() const {
   require(runs >= 1, "bench-features", "--runs must be >= 1");
   require(maxImages >= 1, "bench-features", "--max-images must be >= 1");
+  require(directPoints >= 0, "bench-features", "--direct must be >= 0");
   orb.check();
 }
 
@@ -59,6 +61,8 @@ nlohmann::json BenchFeaturesResult::toJson(const BenchFeaturesOptions& o) const 
   j["scaleFactor"] = o.orb.scaleFactor;
   j["mean_keypoints"] = meanKeypoints;
   j["mean_keypoints_opencv"] = meanKeypointsOpenCv;
+  j["direct_points_target"] = o.directPoints;
+  j["mean_direct_points"] = meanDirectPoints;
   j["timings_ms"] = timings.summary();
   return j;
 }
@@ -70,8 +74,11 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   // cv::ORB with the same budget and pyramid; its own (non-quadtree) selection and Harris ranking.
   cv::Ptr<cv::ORB> cvOrb = cv::ORB::create(p.nFeatures, static_cast<float>(p.scaleFactor), p.nLevels,
                                            p.edgeThreshold, 0, 2, cv::ORB::HARRIS_SCORE, p.patchSize, p.iniThFAST);
+  DirectSelectorParams directParams;
+  directParams.targetPoints = std::max(1, options_.directPoints);
+  const DirectPointSelector direct(directParams);
   BenchFeaturesResult result;
-  size_t nOurs = 0, nCv = 0, nTimed = 0;
+  size_t nOurs = 0, nCv = 0, nTimed = 0, nDirect = 0;
   std::vector<cv::KeyPoint> kps;
   cv::Mat desc;
   for (const fs::path& f : files) {
@@ -97,6 +104,15 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
           nCv += cvKps.size();
         }
       }
+      if (options_.directPoints > 0) {
+        const auto start = std::chrono::steady_clock::now();
+        const size_t n = direct.select(img).size();
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        if (r > 0) {
+          result.timings.add("direct_points", ms);
+          nDirect += n;
+        }
+      }
       if (r == 0) continue;
       result.timings.add("total_cpu", cpuOurs);
       result.timings.add("pyramid", t.pyramidMs);
@@ -110,6 +126,7 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   }
   result.meanKeypoints = nTimed ? double(nOurs) / nTimed : 0;
   result.meanKeypointsOpenCv = nTimed ? double(nCv) / nTimed : 0;
+  result.meanDirectPoints = nTimed ? double(nDirect) / nTimed : 0;
 
   const cv::Mat first = cv::imread(files.front().string(), cv::IMREAD_GRAYSCALE);
   char line[256];
@@ -119,7 +136,7 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   std::snprintf(line, sizeof line, "%-16s %10s %10s %10s\n", "stage", "median_ms", "p90_ms", "min_ms");
   out << line;
   for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "total", "total_cpu",
-                            "opencv_orb", "opencv_orb_cpu"}) {
+                            "opencv_orb", "opencv_orb_cpu", "direct_points"}) {
     const auto it = result.timings.samples().find(stage);
     if (it == result.timings.samples().end()) continue;
     std::snprintf(line, sizeof line, "%-16s %10.2f %10.2f %10.2f\n", stage, percentile(it->second, 50),
@@ -129,6 +146,11 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   std::snprintf(line, sizeof line, "keypoints: OrbExtractor %.1f, cv::ORB %.1f (mean per image)\n",
                 result.meanKeypoints, result.meanKeypointsOpenCv);
   out << line;
+  if (options_.directPoints > 0) {
+    std::snprintf(line, sizeof line, "direct points: %.1f (mean per image, target %d)\n", result.meanDirectPoints,
+                  options_.directPoints);
+    out << line;
+  }
 
   if (!options_.jsonOutput.empty()) {
     ensureParentDirectory(options_.jsonOutput);

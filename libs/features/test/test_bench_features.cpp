@@ -31,12 +31,15 @@ TEST(BenchFeatures, PrintsStagesAndWritesJson) {
   o.runs = 2;
   o.orb.nFeatures = 300;
   o.jsonOutput = dir / "out" / "bench.json";
+  o.directPoints = 500;
   std::ostringstream out;
   const auto r = BenchFeaturesApp(o).run(out);
   for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "total", "opencv_orb"}) {
     EXPECT_NE(out.str().find(stage), std::string::npos) << stage;
     ASSERT_EQ(r.timings.samples().at(stage).size(), 4u) << stage;  // 2 images x 2 runs
   }
+  EXPECT_EQ(r.timings.samples().at("direct_points").size(), 4u);
+  EXPECT_GT(r.meanDirectPoints, 0);
   EXPECT_EQ(r.images.size(), 2u);
   EXPECT_GT(r.meanKeypoints, 0);
   std::ifstream f(o.jsonOutput);

@@ -19,6 +19,7 @@ struct BenchFeaturesOptions {
   int maxImages = 10;               ///< first N images of a folder (sorted by name)
   OrbParams orb;                    ///< extractor parameters; cv::ORB uses the same nFeatures/levels/scale/FAST
   bool compareOpenCv = true;        ///< also time cv::ORB::detectAndCompute
+  int directPoints = 0;             ///< > 0: also time DirectPointSelector with this target (stage direct_points)
   std::filesystem::path jsonOutput; ///< optional: write the summary as JSON (atomically)
   void check() const;
 };
@@ -30,6 +31,7 @@ struct BenchFeaturesResult {
   std::vector<std::string> images;
   double meanKeypoints = 0;         ///< OrbExtractor keypoints per image
   double meanKeypointsOpenCv = 0;   ///< cv::ORB keypoints per image
+  double meanDirectPoints = 0;      ///< DirectPointSelector points per image (if timed)
   nlohmann::json toJson(const BenchFeaturesOptions& options) const;
 };
 
