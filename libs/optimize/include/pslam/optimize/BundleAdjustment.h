@@ -1,0 +1,69 @@
+#pragma once
+// Bundle adjustment of keyframe poses and inverse-depth map points (eq. 3.1, residual (b)) with Ceres:
+// SPARSE_SCHUR on SuiteSparse, inverse depths eliminated first, Huber loss on whitened residuals.
+// The problem is described on plain types (ids, Eigen, intrinsics); MapAdapter.h builds it from a
+// pslam::map::Map and writes the result back.
+#include <cstddef>
+#include <map>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "pslam/map/Types.h"
+#include "pslam/optimize/Params.h"
+
+namespace pslam::optimize {
+
+struct BAKeyFrame {
+  Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
+  map::CameraIntrinsics camera;
+  bool fixed = false;  ///< held constant (gauge / keyframes outside the local window)
+};
+
+struct BAPoint {
+  map::KeyFrameId anchor = map::kNoKeyFrame;  ///< must be in BAProblem::keyframes
+  Eigen::Vector3d bearing = Eigen::Vector3d::UnitZ();  ///< unit, anchor camera frame
+  double inverseDepth = 1.0;
+  bool fixed = false;
+};
+
+struct BAObservation {
+  map::KeyFrameId keyframe = map::kNoKeyFrame;
+  map::MapPointId point = map::kNoMapPoint;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+  double invSigma2 = 1.0;
+};
+
+struct BAProblem {
+  std::map<map::KeyFrameId, BAKeyFrame> keyframes;
+  std::map<map::MapPointId, BAPoint> points;
+  std::vector<BAObservation> observations;
+};
+
+struct BAResult {
+  std::map<map::KeyFrameId, Eigen::Isometry3d> poses;  ///< every non-fixed keyframe that was optimized
+  std::map<map::MapPointId, double> inverseDepths;     ///< every non-fixed point that was optimized
+  std::vector<std::size_t> outliers;  ///< observation indices with chi2 > threshold or negative depth at the end
+  double initialCost = 0.0, finalCost = 0.0;  ///< Ceres cost (1/2 sum of robustified squares), first/last pass
+  /// Unweighted reprojection RMS (pixels) before / after, over the non-anchor observations that are
+  /// inliers at the end.
+  double initialRmsPixels = 0.0, finalRmsPixels = 0.0;
+  int iterations = 0;       ///< LM iterations over both passes
+  int residualBlocks = 0;   ///< in the first pass
+  double solveSeconds = 0.0;
+};
+
+/// Two-pass local BA (ORB-SLAM): firstPassIterations with the Huber loss, then the observations with
+/// chi2 > threshold or negative depth are dropped and secondPassIterations run without the loss. Which
+/// keyframes/points are free is given by their `fixed` flags. Throws pslam::Error on inconsistent input
+/// (unknown ids, non-finite values, no fixed keyframe).
+BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {});
+
+/// Global BA of a (small, e.g. initial two-view) map: the keyframe with the lowest id is fixed in addition
+/// to any flagged ones, globalIterations with the Huber loss; outliers are reported, not removed.
+BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {});
+
+/// Whitened residual of one observation at the problem's current values (for tests and diagnostics).
+Eigen::Vector2d observationResidual(const BAProblem& problem, const BAObservation& observation);
+
+}  // namespace pslam::optimize

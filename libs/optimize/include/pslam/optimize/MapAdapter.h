@@ -1,0 +1,29 @@
+#pragma once
+// Glue between pslam::map::Map and the bundle adjuster: extract a window as a BAProblem, write a BAResult
+// back (poses, inverse depths, erasing outlier observations as ORB-SLAM does after local BA).
+#include "pslam/map/Map.h"
+#include "pslam/optimize/BundleAdjustment.h"
+
+namespace pslam::optimize {
+
+/// Local window of `centre` (Map::localWindow with params.maxLocalKeyFrames): local keyframes free, the
+/// others observing local points fixed; the root keyframe is always fixed (gauge when no other keyframe
+/// is). Bad points are left out.
+BAProblem makeLocalProblem(const map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params = {});
+
+/// Every keyframe and every non-bad point of the map (globalBundleAdjustment fixes the root).
+BAProblem makeGlobalProblem(const map::Map& map);
+
+struct MapUpdateSummary {
+  int posesUpdated = 0;
+  int pointsUpdated = 0;
+  int observationsErased = 0;
+  int pointsErased = 0;  ///< points that lost their last observation
+};
+
+/// Writes poses and inverse depths into `map`, erases the outlier observations when eraseOutliers, and
+/// refreshes the normal / scale distances of the touched points.
+MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BAResult& result,
+                             bool eraseOutliers = true);
+
+}  // namespace pslam::optimize

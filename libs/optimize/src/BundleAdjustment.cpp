@@ -1,0 +1,240 @@
+#include "pslam/optimize/BundleAdjustment.h"
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include <ceres/loss_function.h>
+#include <ceres/ordered_groups.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include "pslam/core/Error.h"
+#include "pslam/optimize/InverseDepthReprojectionError.h"
+
+namespace pslam::optimize {
+
+namespace {
+
+using map::KeyFrameId;
+using map::MapPointId;
+
+void validate(const BAProblem& problem) {
+  const std::string ctx = "bundle adjustment";
+  for (const auto& [id, kf] : problem.keyframes) {
+    require(kf.T_cam_world.matrix().allFinite(), ctx, "keyframe " + std::to_string(id) + " pose has NaN/Inf");
+    kf.camera.check(ctx + ": keyframe " + std::to_string(id) + " camera");
+  }
+  for (const auto& [id, p] : problem.points) {
+    require(problem.keyframes.count(p.anchor) != 0, ctx,
+            "point " + std::to_string(id) + " anchor keyframe " + std::to_string(p.anchor) + " is not in the problem");
+    require(p.bearing.allFinite() && std::abs(p.bearing.norm() - 1.0) < 1e-6, ctx,
+            "point " + std::to_string(id) + " bearing is not a finite unit vector");
+    require(std::isfinite(p.inverseDepth), ctx, "point " + std::to_string(id) + " inverse depth is NaN/Inf");
+  }
+  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
+    const BAObservation& o = problem.observations[i];
+    const std::string obs = "observation " + std::to_string(i);
+    require(problem.keyframes.count(o.keyframe) != 0, ctx, obs + " refers to unknown keyframe " + std::to_string(o.keyframe));
+    require(problem.points.count(o.point) != 0, ctx, obs + " refers to unknown point " + std::to_string(o.point));
+    require(o.pixel.allFinite() && std::isfinite(o.invSigma2) && o.invSigma2 > 0.0, ctx,
+            obs + " has a NaN/Inf pixel or a non-positive weight");
+  }
+}
+
+// Mutable copy of the problem's values, in the layout Ceres optimizes. The blocks live in contiguous
+// vectors in id order: Ceres orders blocks inside a Schur group by address, so this makes the elimination
+// order (and with it every floating-point result) identical from run to run.
+struct State {
+  std::vector<PoseParameters> poseStorage;
+  std::vector<double> rhoStorage;
+  std::map<KeyFrameId, double*> poses;
+  std::map<MapPointId, double*> rhos;
+
+  explicit State(const BAProblem& problem) {
+    poseStorage.reserve(problem.keyframes.size());
+    for (const auto& [id, kf] : problem.keyframes) poseStorage.push_back(toPoseParameters(kf.T_cam_world));
+    rhoStorage.reserve(problem.points.size());
+    for (const auto& [id, p] : problem.points) rhoStorage.push_back(p.inverseDepth);
+    std::size_t i = 0;
+    for (const auto& [id, kf] : problem.keyframes) poses[id] = poseStorage[i++].data();
+    i = 0;
+    for (const auto& [id, p] : problem.points) rhos[id] = &rhoStorage[i++];
+  }
+  State(const State&) = delete;
+  State& operator=(const State&) = delete;
+};
+
+struct ObservationCheck {
+  Eigen::Vector2d whitened;
+  Eigen::Vector2d pixels;  ///< unweighted residual
+  bool inFront = true;
+  bool isAnchor = false;
+};
+
+ObservationCheck evaluate(const BAProblem& problem, const State& state, const BAObservation& o) {
+  const BAPoint& p = problem.points.at(o.point);
+  const double rho = *state.rhos.at(o.point);
+  ObservationCheck c;
+  c.isAnchor = o.keyframe == p.anchor;
+  Eigen::Vector3d ph;
+  if (c.isAnchor) {
+    ph = p.bearing;
+  } else {
+    ph = anchoredPointInTarget<double>(state.poses.at(p.anchor), state.poses.at(o.keyframe), rho, p.bearing);
+  }
+  // Depth in the observing camera is ph.z / rho: positive iff the point is in front of its anchor (rho > 0;
+  // rho = 0 is a direction at infinity) and ph.z > 0.
+  c.inFront = rho >= 0.0 && ph.z() > 0.0;
+  whitenedReprojection<double>(ph, problem.keyframes.at(o.keyframe).camera, o.pixel, 1.0, c.pixels.data());
+  c.whitened = c.pixels * std::sqrt(o.invSigma2);
+  return c;
+}
+
+// Unweighted RMS over the non-anchor observations not flagged in `skip`.
+double rmsPixels(const BAProblem& problem, const State& state, const std::vector<bool>& skip) {
+  double sum = 0.0;
+  int n = 0;
+  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
+    if (skip[i]) continue;
+    const ObservationCheck c = evaluate(problem, state, problem.observations[i]);
+    if (c.isAnchor) continue;
+    sum += c.pixels.squaredNorm();
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum / n) : 0.0;
+}
+
+// One Levenberg-Marquardt pass over the observations not excluded. Returns the Ceres summary.
+ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const std::vector<bool>& excluded,
+                                 const std::map<KeyFrameId, bool>& keyframeFixed, bool robust, int iterations,
+                                 const BundleAdjustmentParams& params, int& residualBlocks) {
+  ceres::HuberLoss huber(params.huberDelta);
+  ceres::Problem::Options problemOptions;
+  problemOptions.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem ceresProblem(problemOptions);
+  residualBlocks = 0;
+  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
+    if (excluded[i]) continue;
+    const BAObservation& o = problem.observations[i];
+    const BAPoint& p = problem.points.at(o.point);
+    if (o.keyframe == p.anchor) continue;  // constant residual (see InverseDepthReprojectionError.h)
+    ceresProblem.AddResidualBlock(
+        InverseDepthReprojectionError::create(p.bearing, o.pixel, o.invSigma2, problem.keyframes.at(o.keyframe).camera),
+        robust ? &huber : nullptr, state.poses.at(p.anchor), state.poses.at(o.keyframe), state.rhos.at(o.point));
+    ++residualBlocks;
+  }
+  ceres::Solver::Summary summary;
+  if (residualBlocks == 0) return summary;
+
+  // Schur ordering: every inverse depth in the first (eliminated) group, poses in the second.
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (auto& [id, pose] : state.poses) {
+    if (!ceresProblem.HasParameterBlock(pose)) continue;
+    ceresProblem.SetManifold(pose, new PoseManifold);
+    if (keyframeFixed.at(id)) ceresProblem.SetParameterBlockConstant(pose);
+    ordering->AddElementToGroup(pose, 1);
+  }
+  for (auto& [id, rho] : state.rhos) {
+    if (!ceresProblem.HasParameterBlock(rho)) continue;
+    if (problem.points.at(id).fixed) ceresProblem.SetParameterBlockConstant(rho);
+    ordering->AddElementToGroup(rho, 0);
+  }
+
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_SCHUR;
+  options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  options.linear_solver_ordering = ordering;
+  options.max_num_iterations = iterations;
+  options.function_tolerance = params.functionTolerance;
+  options.num_threads = params.numThreads;
+  options.logging_type = ceres::SILENT;
+  ceres::Solve(options, &ceresProblem, &summary);
+  return summary;
+}
+
+BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, const std::map<KeyFrameId, bool>& fixed,
+             int firstIterations, int secondIterations) {
+  const auto start = std::chrono::steady_clock::now();
+  State state(problem);
+  const State initialState(problem);
+  BAResult result;
+
+  std::vector<bool> excluded(problem.observations.size(), false);
+  int blocks = 0;
+  const ceres::Solver::Summary first = solvePass(problem, state, excluded, fixed, true, firstIterations, params, blocks);
+  result.residualBlocks = blocks;
+  result.initialCost = first.initial_cost;
+  result.finalCost = first.final_cost;
+  result.iterations = static_cast<int>(first.iterations.size());
+
+  auto isOutlier = [&](std::size_t i) {
+    const ObservationCheck c = evaluate(problem, state, problem.observations[i]);
+    return !(c.whitened.squaredNorm() <= params.chi2Threshold) || !c.inFront;
+  };
+  if (secondIterations > 0) {
+    for (std::size_t i = 0; i < excluded.size(); ++i) excluded[i] = isOutlier(i);
+    const ceres::Solver::Summary second =
+        solvePass(problem, state, excluded, fixed, false, secondIterations, params, blocks);
+    if (blocks > 0) {
+      result.finalCost = second.final_cost;
+      result.iterations += static_cast<int>(second.iterations.size());
+    }
+  }
+  for (std::size_t i = 0; i < problem.observations.size(); ++i)
+    if (isOutlier(i)) result.outliers.push_back(i);
+
+  // Report every free block that took part in the optimization.
+  std::map<KeyFrameId, bool> used;
+  std::map<MapPointId, bool> usedPoint;
+  for (const BAObservation& o : problem.observations) {
+    const BAPoint& p = problem.points.at(o.point);
+    if (o.keyframe == p.anchor) continue;
+    used[o.keyframe] = used[p.anchor] = true;
+    usedPoint[o.point] = true;
+  }
+  for (const auto& [id, u] : used)
+    if (!fixed.at(id)) result.poses[id] = fromPoseParameters(state.poses.at(id));
+  for (const auto& [id, u] : usedPoint)
+    if (!problem.points.at(id).fixed) result.inverseDepths[id] = *state.rhos.at(id);
+
+  // Error statistics over the final inliers, so that a few gross outliers do not hide the improvement.
+  std::vector<bool> skip(problem.observations.size(), false);
+  for (std::size_t i : result.outliers) skip[i] = true;
+  result.initialRmsPixels = rmsPixels(problem, initialState, skip);
+  result.finalRmsPixels = rmsPixels(problem, state, skip);
+  result.solveSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace
+
+BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params) {
+  params.check();
+  validate(problem);
+  std::map<KeyFrameId, bool> fixed;
+  bool anyFixed = false;
+  for (const auto& [id, kf] : problem.keyframes) {
+    fixed[id] = kf.fixed;
+    anyFixed = anyFixed || kf.fixed;
+  }
+  require(anyFixed || problem.keyframes.empty(), "local bundle adjustment",
+          "no fixed keyframe: the gauge (world frame) would be free");
+  return run(problem, params, fixed, params.firstPassIterations, params.secondPassIterations);
+}
+
+BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params) {
+  params.check();
+  validate(problem);
+  std::map<KeyFrameId, bool> fixed;
+  for (const auto& [id, kf] : problem.keyframes) fixed[id] = kf.fixed;
+  if (!fixed.empty()) fixed.begin()->second = true;  // the first keyframe defines the world frame
+  return run(problem, params, fixed, params.globalIterations, 0);
+}
+
+Eigen::Vector2d observationResidual(const BAProblem& problem, const BAObservation& observation) {
+  const State state(problem);
+  return evaluate(problem, state, observation).whitened;
+}
+
+}  // namespace pslam::optimize
