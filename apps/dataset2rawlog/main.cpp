@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--gt-max-gap", opt.gtMaxGap, "Do not interpolate ground truth across holes longer than this (s)");
   app.add_flag("--no-depth", opt.noDepth, "Do not write DEPTH observations");
+  app.add_option("--euroc-camera", opt.eurocCamera, "EuRoC camera folder (cam0 or cam1)")->capture_default_str();
   app.add_option("--kitti-camera", opt.kittiCamera, "KITTI camera: 0 (image_0, grey) or 2 (image_2, colour)");
   app.add_option("--poses", opt.posesFile,
                  "Ground-truth file: KITTI poses (3x4 per line), ICL *.gt.freiburg, or TUM file for a folder (one "

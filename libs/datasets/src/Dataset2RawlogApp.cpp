@@ -87,6 +87,7 @@ void Dataset2RawlogOptions::loadFromConfigFile(const mrpt::config::CConfigFileBa
   gtMaxGap = cfg.read_double(s, "gt_max_gap", gtMaxGap);
   noDepth = cfg.read_bool(s, "no_depth", noDepth);
   kittiCamera = cfg.read_int(s, "kitti_camera", kittiCamera);
+  eurocCamera = cfg.read_string(s, "euroc_camera", eurocCamera);
   posesFile = cfg.read_string(s, "poses", posesFile.string());
   timesFile = cfg.read_string(s, "times", timesFile.string());
   iclRawPoses = cfg.read_bool(s, "icl_raw_poses", iclRawPoses);
@@ -115,6 +116,7 @@ void Dataset2RawlogOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg,
   cfg.write(s, "gt_max_gap", gtMaxGap);
   cfg.write(s, "no_depth", noDepth);
   cfg.write(s, "kitti_camera", kittiCamera);
+  cfg.write(s, "euroc_camera", eurocCamera);
   cfg.write(s, "poses", posesFile.string());
   cfg.write(s, "times", timesFile.string());
   cfg.write(s, "icl_raw_poses", iclRawPoses);
@@ -143,6 +145,7 @@ void Dataset2RawlogOptions::check() const {
   require(std::isfinite(gtMaxGap) && gtMaxGap >= 0, "gt_max_gap", "must be >= 0 (seconds, 0 = no limit)");
   require(kittiCamera == -1 || kittiCamera == 0 || kittiCamera == 2, "kitti_camera", "must be 0, 2 or -1 (auto)");
   require(name.find('/') == std::string::npos, "name", "must be a base name, not a path");
+  require(eurocCamera == "cam0" || eurocCamera == "cam1", "euroc_camera", "must be cam0 or cam1");
 }
 
 // ------------------------------------------------------------------------------------------------ summary
@@ -224,6 +227,7 @@ DatasetIndex Dataset2RawlogApp::buildIndex() const {
     case DatasetFormat::Euroc: {
       EurocOptions o;
       o.override = cam;
+      o.cameraName = opt_.eurocCamera;
       o.gtMaxGap = opt_.gtMaxGap;
       index = indexEuroc(opt_.input, o);
       break;

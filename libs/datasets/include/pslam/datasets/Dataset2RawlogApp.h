@@ -41,6 +41,7 @@ struct Dataset2RawlogOptions {
   bool noDepth = false;
   // Format specifics
   int kittiCamera = -1;              ///< 0 | 2 | -1 (= image_0 if present)
+  std::string eurocCamera = "cam0";  ///< EuRoC camera folder under mav0/
   std::filesystem::path posesFile;   ///< KITTI/ICL/folder ground truth file (overrides the default place)
   std::filesystem::path timesFile;   ///< KITTI times file (overrides <seq>/times.txt)
   bool iclRawPoses = false;          ///< keep ICL-NUIM poses in the renderer's y-up frame
@@ -48,7 +49,7 @@ struct Dataset2RawlogOptions {
 
   /// Keys: the member names in snake_case (input, out_dir, name, format, first, last, count, stride, color,
   /// image_format, camera_ini, camera_section, intrinsics, distortion, tum_camera, rate, first_stamp,
-  /// max_depth_diff, gt_max_gap, no_depth, kitti_camera, poses, times, icl_raw_poses, progress).
+  /// max_depth_diff, gt_max_gap, no_depth, kitti_camera, euroc_camera, poses, times, icl_raw_poses, progress).
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
   void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
   /// Throws pslam::Error naming the offending key.

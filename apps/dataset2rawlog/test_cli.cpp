@@ -1,0 +1,69 @@
+// e2e: the dataset2rawlog binary converts a small TUM dataset and fails with one line + exit code 1.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "SyntheticDatasets.h"
+#include "pslam/datasets/Rawlog.h"
+
+using namespace pslam::datasets::testing;
+
+namespace {
+
+struct Result {
+  int code = -1;
+  std::string err;
+};
+
+Result run(const std::string& args, const fs::path& dir) {
+  const fs::path errFile = dir / "stderr.txt";
+  const std::string cmd = std::string(DATASET2RAWLOG_EXE) + " " + args + " > " + (dir / "stdout.txt").string() +
+                          " 2> " + errFile.string();
+  const int status = std::system(cmd.c_str());
+  Result r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(errFile);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
+}  // namespace
+
+TEST(Dataset2RawlogCli, ConvertsAndReportsErrorsOnOneLine) {
+  const fs::path base = freshDir("cli");
+  const fs::path root = base / "rgbd_dataset_freiburg3_cli";
+  TumSpec spec;
+  spec.width = 640;
+  spec.height = 480;
+  spec.frames = 3;
+  writeTumDataset(root, spec);
+  fs::create_directories(base / "logs");
+
+  EXPECT_EQ(run("--help", base / "logs").code, 0);
+
+  const Result ok = run(root.string() + " -o " + (base / "out").string() + " -q", base / "logs");
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_EQ(pslam::datasets::RawlogReader::countFrames(base / "out" / "rgbd_dataset_freiburg3_cli.rawlog"), 3u);
+  EXPECT_TRUE(fs::is_regular_file(base / "out" / "rgbd_dataset_freiburg3_cli_groundtruth.txt"));
+
+  const Result missing = run((base / "absent").string() + " -o " + (base / "out2").string(), base / "logs");
+  EXPECT_EQ(missing.code, 1);
+  EXPECT_EQ(missing.err.rfind("dataset2rawlog: error: ", 0), 0u) << missing.err;
+  EXPECT_NE(missing.err.find("absent"), std::string::npos) << missing.err;
+  EXPECT_EQ(std::count(missing.err.begin(), missing.err.end(), '\n'), 1) << missing.err;
+  EXPECT_FALSE(fs::exists(base / "out2" / "absent.rawlog"));
+
+  const Result badFormat = run(root.string() + " -o " + (base / "out3").string() + " --format rosbag", base / "logs");
+  EXPECT_EQ(badFormat.code, 1);
+  EXPECT_NE(badFormat.err.find("unknown dataset format 'rosbag'"), std::string::npos) << badFormat.err;
+
+  const Result lossy = run(root.string() + " -o " + (base / "out4").string() + " --image-format jpg", base / "logs");
+  EXPECT_EQ(lossy.code, 1);
+  EXPECT_NE(lossy.err.find("image_format"), std::string::npos) << lossy.err;
+}
