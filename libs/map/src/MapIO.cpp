@@ -1,5 +1,7 @@
 #include "pslam/map/MapIO.h"
 
+#include <algorithm>
+#include <array>
 #include <cstring>
 #include <mutex>
 
@@ -38,6 +40,25 @@ std::uint64_t readCount(CArchive& in, const char* what) {
   return n;
 }
 
+std::size_t cappedReserve(std::uint64_t n) { return static_cast<std::size_t>(std::min<std::uint64_t>(n, 1u << 16)); }
+
+void writeDoubles(CArchive& out, const std::vector<double>& v) {
+  out << std::uint64_t(v.size());
+  for (double x : v) out << x;
+}
+
+std::vector<double> readDoubles(CArchive& in, const char* what) {
+  const std::uint64_t n = readCount(in, what);
+  std::vector<double> v;
+  v.reserve(cappedReserve(n));
+  for (std::uint64_t i = 0; i < n; ++i) {
+    double x = 0.0;
+    in >> x;
+    v.push_back(x);
+  }
+  return v;
+}
+
 void writeMat(CArchive& out, const cv::Mat& m) {
   const std::int32_t rows = m.rows, cols = m.cols, type = m.empty() ? 0 : m.type();
   out << rows << cols << type;
@@ -50,7 +71,7 @@ cv::Mat readMat(CArchive& in) {
   std::int32_t rows = 0, cols = 0, type = 0;
   in >> rows >> cols >> type;
   if (rows == 0 || cols == 0) return {};
-  if (rows < 0 || cols < 0 || std::uint64_t(rows) * std::uint64_t(cols) > kMaxCount || type != CV_8UC1)
+  if (rows < 0 || rows > 10'000'000 || cols != 32 || type != CV_8UC1)
     throw Error("invalid descriptor matrix header");
   cv::Mat m(rows, cols, type);
   const std::size_t bytes = m.total() * m.elemSize();
@@ -75,7 +96,8 @@ void writeKeyFrame(CArchive& out, const KeyFrame& kf) {
   for (const cv::KeyPoint& k : kf.keypoints)
     out << k.pt.x << k.pt.y << k.size << k.angle << k.response << std::int32_t(k.octave) << std::int32_t(k.class_id);
   writeMat(out, kf.descriptors);
-  out << kf.scaleFactors << kf.levelSigma2;
+  writeDoubles(out, kf.scaleFactors);
+  writeDoubles(out, kf.levelSigma2);
   out << std::uint64_t(kf.semanticProbabilities.size());
   for (const auto& s : kf.semanticProbabilities) out << s[0] << s[1] << s[2];
   out << std::uint64_t(kf.mapPointIds.size());
@@ -97,21 +119,33 @@ KeyFrame readKeyFrame(CArchive& in) {
   in >> kf.camera.fx >> kf.camera.fy >> kf.camera.cx >> kf.camera.cy >> w >> h;
   kf.camera.width = w;
   kf.camera.height = h;
-  kf.keypoints.resize(readCount(in, "keypoint"));
-  for (cv::KeyPoint& k : kf.keypoints) {
+  // Containers grow element by element (reserve is capped): a corrupt count fails at the end of the data
+  // instead of allocating gigabytes first.
+  const std::uint64_t nKeypoints = readCount(in, "keypoint");
+  kf.keypoints.reserve(cappedReserve(nKeypoints));
+  for (std::uint64_t i = 0; i < nKeypoints; ++i) {
+    cv::KeyPoint k;
     std::int32_t octave = 0, classId = 0;
     in >> k.pt.x >> k.pt.y >> k.size >> k.angle >> k.response >> octave >> classId;
     k.octave = octave;
     k.class_id = classId;
+    kf.keypoints.push_back(k);
   }
   kf.descriptors = readMat(in);
-  in >> kf.scaleFactors >> kf.levelSigma2;
-  kf.semanticProbabilities.resize(readCount(in, "semantic"));
-  for (auto& s : kf.semanticProbabilities) in >> s[0] >> s[1] >> s[2];
-  kf.mapPointIds.resize(readCount(in, "map point id"));
-  for (MapPointId& p : kf.mapPointIds) {
+  kf.scaleFactors = readDoubles(in, "scale factor");
+  kf.levelSigma2 = readDoubles(in, "level sigma2");
+  const std::uint64_t nSemantic = readCount(in, "semantic");
+  kf.semanticProbabilities.reserve(cappedReserve(nSemantic));
+  for (std::uint64_t i = 0; i < nSemantic; ++i) {
+    std::array<float, 3> s{};
+    in >> s[0] >> s[1] >> s[2];
+    kf.semanticProbabilities.push_back(s);
+  }
+  const std::uint64_t nIds = readCount(in, "map point id");
+  kf.mapPointIds.reserve(cappedReserve(nIds));
+  for (std::uint64_t i = 0; i < nIds; ++i) {
     in >> u;
-    p = u;
+    kf.mapPointIds.push_back(u);
   }
   const std::uint64_t nShared = readCount(in, "covisibility");
   for (std::uint64_t i = 0; i < nShared; ++i) {
@@ -137,7 +171,8 @@ void writeMapPoint(CArchive& out, const MapPoint& p) {
   writeMat(out, p.descriptor);
   writeVec3(out, p.normal);
   out << p.minDistance << p.maxDistance << std::int32_t(p.visibleCount) << std::int32_t(p.foundCount) << p.bad
-      << std::uint64_t(p.firstKeyFrame) << p.landmarkState;
+      << std::uint64_t(p.firstKeyFrame);
+  writeDoubles(out, p.landmarkState);
 }
 
 MapPoint readMapPoint(CArchive& in) {
@@ -158,7 +193,8 @@ MapPoint readMapPoint(CArchive& in) {
   p.descriptor = readMat(in);
   p.normal = readVec3(in);
   std::int32_t visible = 0, found = 0;
-  in >> p.minDistance >> p.maxDistance >> visible >> found >> p.bad >> first >> p.landmarkState;
+  in >> p.minDistance >> p.maxDistance >> visible >> found >> p.bad >> first;
+  p.landmarkState = readDoubles(in, "landmark state");
   p.visibleCount = visible;
   p.foundCount = found;
   p.firstKeyFrame = first;
