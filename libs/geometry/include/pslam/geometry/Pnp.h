@@ -1,0 +1,54 @@
+#pragma once
+// Camera pose from 2D-3D correspondences for relocalization (thesis §2.3.2.1, "Rotation + Translation
+// (3D-2D)", eq. 2.30): RANSAC over EPnP minimal sets (cv::solvePnPRansac), then Levenberg-Marquardt
+// refinement on the inliers (cv::solvePnPRefineLM) and a final inlier test with the refined pose.
+//
+// Pixels are undistorted (ideal pinhole camera). The pose is T_cam_world: X_cam = R X_world + t.
+// Determinism: OpenCV's classic RANSAC draws its samples from a cv::RNG with a fixed internal seed, so
+// equal inputs give equal outputs; no global random state is touched.
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <mrpt/config/CConfigFileBase.h>
+#include <mrpt/poses/CPose3D.h>
+
+#include "pslam/geometry/PinholeCamera.h"
+
+namespace pslam::geometry {
+
+struct PnpParams {
+  int ransacIterations = 300;
+  double sigma = 1.0;              ///< keypoint position std (pixels)
+  double chi2Threshold = 5.991;    ///< inlier if squared re-projection error <= chi2 * sigma^2 (2 dof, 95 %)
+  double confidence = 0.99;
+  int minInliers = 15;             ///< fewer inliers after refinement = failure
+  bool refine = true;              ///< LM refinement on the RANSAC inliers
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  void check() const;
+};
+
+enum class PnpFailure { None, TooFewCorrespondences, InvalidInput, RansacFailed, TooFewInliers };
+const char* toString(PnpFailure failure);
+
+struct PnpResult {
+  bool success = false;
+  PnpFailure failure = PnpFailure::None;
+  std::string message;
+  Eigen::Matrix3d R_cam_world = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t_cam_world = Eigen::Vector3d::Zero();
+  std::vector<bool> inliers;  ///< per correspondence, with the final pose
+  int numInliers = 0;
+  double rmsReprojectionError = 0.0;  ///< over the inliers, pixels
+
+  mrpt::poses::CPose3D poseCamWorld() const;
+};
+
+/// points_world[i] is observed at pixels[i]. Returns a failed result (never throws) for too few
+/// correspondences (< 4 or < minInliers), non-finite input, or too few inliers.
+PnpResult solvePnpRansac(const PinholeCamera& camera, const std::vector<Eigen::Vector3d>& points_world,
+                         const std::vector<Eigen::Vector2d>& pixels, const PnpParams& params = {});
+
+}  // namespace pslam::geometry
