@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 
 #include <opencv2/imgproc.hpp>
 
@@ -15,6 +16,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+double processCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 // One quadtree node: an axis-aligned cell [x0,x1) x [y0,y1) and the keypoints inside it.
@@ -316,21 +322,28 @@ void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keyp
   t = OrbStageTimes{};
 
   auto start = Clock::now();
+  double cpu = processCpuMs();
   buildPyramid(grey);
   t.pyramidMs = msSince(start);
+  t.pyramidCpuMs = processCpuMs() - cpu;
 
   const int L = params_.nLevels;
   std::vector<std::vector<cv::KeyPoint>> perLevel(L);
   start = Clock::now();
+  cpu = processCpuMs();
   for (int l = 0; l < L; ++l) detectLevel(l, perLevel[l]);
   t.detectMs = msSince(start);
+  t.detectCpuMs = processCpuMs() - cpu;
 
   start = Clock::now();
+  cpu = processCpuMs();
   for (int l = 0; l < L; ++l)
     for (cv::KeyPoint& kp : perLevel[l]) kp.angle = intensityCentroidAngle(pyramid_[l], kp.pt);
   t.orientationMs = msSince(start);
+  t.orientationCpuMs = processCpuMs() - cpu;
 
   start = Clock::now();
+  cpu = processCpuMs();
   size_t total = 0;
   for (const auto& v : perLevel) total += v.size();
   keypoints.clear();
@@ -368,6 +381,7 @@ void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keyp
     }
   }
   t.descriptorMs = msSince(start);
+  t.descriptorCpuMs = processCpuMs() - cpu;
 }
 
 }  // namespace pslam::features

@@ -25,8 +25,8 @@ struct BenchFeaturesOptions {
 };
 
 struct BenchFeaturesResult {
-  /// Wall-clock stages pyramid, fast+quadtree, orientation, descriptors, total, opencv_orb; process CPU time
-  /// total_cpu, opencv_orb_cpu (robust to a loaded machine).
+  /// Wall-clock stages pyramid, fast+quadtree, orientation, descriptors, total, opencv_orb, direct_points; the
+  /// same with suffix _cpu in process CPU time (robust to a loaded machine).
   StageTimings timings;
   std::vector<std::string> images;
   double meanKeypoints = 0;         ///< OrbExtractor keypoints per image

@@ -38,13 +38,16 @@ struct OrbParams {
   void check() const;
 };
 
-/// Wall-clock milliseconds of the stages of one extract() call.
+/// Milliseconds spent in the stages of one extract() call: wall-clock, and CPU time of the whole process (all
+/// threads, incl. OpenCV's workers), which on a loaded machine estimates the unloaded run time better.
 struct OrbStageTimes {
   double pyramidMs = 0;      ///< building the padded scale pyramid
   double detectMs = 0;       ///< per-cell FAST + quadtree distribution
   double orientationMs = 0;  ///< intensity-centroid angles
   double descriptorMs = 0;   ///< Gaussian blur + steered BRIEF
+  double pyramidCpuMs = 0, detectCpuMs = 0, orientationCpuMs = 0, descriptorCpuMs = 0;
   double totalMs() const { return pyramidMs + detectMs + orientationMs + descriptorMs; }
+  double totalCpuMs() const { return pyramidCpuMs + detectCpuMs + orientationCpuMs + descriptorCpuMs; }
 };
 
 class OrbExtractor {
