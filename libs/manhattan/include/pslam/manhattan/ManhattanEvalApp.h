@@ -1,0 +1,36 @@
+#pragma once
+// The `manhattan-eval` tool: runs the Manhattan-frame tracker over a rawlog and
+// reports, against ground truth, the per-frame rotation error relative to the first frame, the share of
+// frames the tracker accepts, per-stage timings, and optionally the normal-accuracy metrics of §4.5.3
+// between two normal sources.
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace pslam::manhattan {
+
+struct ManhattanEvalOptions {
+  std::filesystem::path rawlog;       ///< input rawlog (DESIGN.md §3)
+  std::filesystem::path groundTruth;  ///< TUM file; default `<stem>_groundtruth.txt` beside the rawlog
+  std::string normals = "rawlog";     ///< normals for the tracker: rawlog | depth | network
+  std::string referenceNormals;       ///< optional second source; metrics of `normals` against it
+  std::filesystem::path config;       ///< ini: [ManhattanTracker], [NormalsFromDepth], [NormalsFromNetwork]
+  int normalStride = 2;               ///< pixel stride when collecting normals for the tracker
+  double maxGroundTruthDt = 0.02;     ///< [s] ground-truth association window
+  std::filesystem::path outputJson;   ///< optional, written atomically
+  std::filesystem::path outputText;   ///< optional, written atomically (the text is also returned)
+  bool progress = true;
+};
+
+struct ManhattanEvalResult {
+  nlohmann::json report;  ///< configuration, per-frame records, summary
+  std::string text;       ///< human-readable summary table
+};
+
+/// Throws pslam::Error naming the file/frame on bad input.
+ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& options);
+
+inline constexpr const char* kTrackerSection = "ManhattanTracker";
+
+}  // namespace pslam::manhattan

@@ -1,0 +1,174 @@
+#include "pslam/manhattan/ManhattanEvalApp.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <memory>
+#include <numeric>
+#include <optional>
+#include <sstream>
+
+#include <mrpt/config/CConfigFile.h>
+#include <mrpt/config/CConfigFileMemory.h>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+#include "pslam/core/Progress.h"
+#include "pslam/core/StageTimer.h"
+#include "pslam/core/Trajectory.h"
+#include "pslam/datasets/Rawlog.h"
+#include "pslam/manhattan/ManhattanTracker.h"
+#include "pslam/priors/NormalSource.h"
+
+namespace fs = std::filesystem;
+
+namespace pslam::manhattan {
+
+namespace {
+
+const StampedPose* nearestPose(const Trajectory& gt, double t, double maxDt) {
+  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const StampedPose& p, double s) { return p.timestamp < s; });
+  const StampedPose* best = nullptr;
+  if (it != gt.end()) best = &*it;
+  if (it != gt.begin() && (!best || std::abs((it - 1)->timestamp - t) < std::abs(best->timestamp - t)))
+    best = &*(it - 1);
+  return best && std::abs(best->timestamp - t) <= maxDt ? best : nullptr;
+}
+
+double median(std::vector<double> v) { return percentile(std::move(v), 50.0); }
+
+}  // namespace
+
+ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
+  require(!o.rawlog.empty(), "manhattan-eval", "an input rawlog is required");
+  require(fs::is_regular_file(o.rawlog), o.rawlog.string(), "rawlog not found");
+  require(o.normalStride >= 1, "manhattan-eval", "normal stride must be >= 1");
+  ManhattanParams params;
+  if (!o.config.empty()) {
+    require(fs::is_regular_file(o.config), o.config.string(), "config file not found");
+    mrpt::config::CConfigFile cfg(o.config.string());
+    try {
+      params.loadFromConfigFile(cfg, kTrackerSection);
+    } catch (const Error& e) {
+      throw Error(o.config.string() + ": " + e.what());
+    }
+  }
+  auto normalSource = priors::makeNormalSource(o.normals, o.config);
+  std::unique_ptr<priors::NormalSource> referenceSource;
+  if (!o.referenceNormals.empty()) referenceSource = priors::makeNormalSource(o.referenceNormals, o.config);
+
+  fs::path gtPath = o.groundTruth;
+  if (gtPath.empty()) gtPath = o.rawlog.parent_path() / (o.rawlog.stem().string() + "_groundtruth.txt");
+  require(fs::is_regular_file(gtPath), gtPath.string(), "ground-truth file not found");
+  Trajectory gt = readTumTrajectory(gtPath);
+  std::sort(gt.begin(), gt.end(), [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
+
+  datasets::RawlogReader frames(o.rawlog);
+  Progress progress("manhattan-eval", datasets::RawlogReader::countFrames(o.rawlog), o.progress);
+  ManhattanTracker tracker(params);
+  StageTimings timings;
+  priors::NormalErrorAccumulator accuracy;
+  nlohmann::json perFrame = nlohmann::json::array();
+  std::vector<double> errors;
+  std::size_t nFrames = 0, nValid = 0, nWithGt = 0;
+  std::optional<Eigen::Matrix3d> R_c0_mf, R_w_c0;  // reference: first frame with a valid estimate and GT
+  datasets::Frame frame;
+  while (frames.next(frame)) {
+    ++nFrames;
+    priors::NormalMap nm;
+    {
+      ScopedStage s(timings, "normals_" + normalSource->kind());
+      nm = normalSource->compute(frame);
+    }
+    if (referenceSource) {
+      const priors::NormalMap ref = referenceSource->compute(frame);
+      accuracy.addMaps(nm.normals, ref.normals);
+    }
+    // The tracker uses the planar pixels only (thesis §4.2).
+    cv::Mat planarNormals(nm.normals.size(), CV_32FC3, cv::Scalar::all(0));
+    nm.normals.copyTo(planarNormals, nm.planarMask);
+    const auto normals = priors::collectNormals(planarNormals, o.normalStride);
+    ManhattanEstimate est;
+    {
+      ScopedStage s(timings, "tracker");
+      est = tracker.process(normals);
+    }
+    nlohmann::json rec = {{"index", frame.index}, {"timestamp", frame.timestamp}, {"normals", normals.size()}};
+    rec["estimate"] = est.toJson();
+    const StampedPose* pose = nearestPose(gt, frame.timestamp, o.maxGroundTruthDt);
+    if (pose) ++nWithGt;
+    if (est.valid) ++nValid;
+    if (est.valid && pose) {
+      const Eigen::Matrix3d R_w_ci = pose->orientation.toRotationMatrix();
+      if (!R_c0_mf) {
+        R_c0_mf = est.R_cam_mf;
+        R_w_c0 = R_w_ci;
+      }
+      // Relative to the first frame: R_c0_ci = R_c0_mf R_ci_mf^T (tracker) vs R_w_c0^T R_w_ci (ground truth).
+      const Eigen::Matrix3d estRel = *R_c0_mf * est.R_cam_mf.transpose();
+      const Eigen::Matrix3d gtRel = R_w_c0->transpose() * R_w_ci;
+      const double err = rotationAngleDeg(estRel, gtRel);
+      errors.push_back(err);
+      rec["rotation_error_deg"] = err;
+      rec["gt_rotation_from_first_deg"] = rotationAngleDeg(Eigen::Matrix3d::Identity(), gtRel);
+    }
+    perFrame.push_back(rec);
+    progress.update(nFrames, est.valid ? "ok" : est.reason);
+  }
+  progress.finish(std::to_string(nValid) + "/" + std::to_string(nFrames) + " frames accepted");
+  require(nFrames > 0, o.rawlog.string(), "no frames");
+
+  nlohmann::json summary;
+  summary["frames"] = nFrames;
+  summary["frames_with_ground_truth"] = nWithGt;
+  summary["accepted_frames"] = nValid;
+  summary["success_share"] = static_cast<double>(nValid) / nFrames;
+  summary["evaluated_frames"] = errors.size();
+  const bool haveErr = !errors.empty();
+  summary["rotation_error_median_deg"] = haveErr ? median(errors) : std::nan("");
+  summary["rotation_error_max_deg"] = haveErr ? *std::max_element(errors.begin(), errors.end()) : std::nan("");
+  summary["rotation_error_mean_deg"] =
+      haveErr ? std::accumulate(errors.begin(), errors.end(), 0.0) / errors.size() : std::nan("");
+  summary["timings_ms"] = timings.summary();
+  if (referenceSource) summary["normal_accuracy"] = accuracy.summary().toJson();
+
+  nlohmann::json config;
+  mrpt::config::CConfigFileMemory effective;
+  params.saveToConfigFile(effective, kTrackerSection);
+  config["tracker_ini"] = effective.getContent();
+  config["input"] = o.rawlog.string();
+  config["ground_truth"] = gtPath.string();
+  config["normals"] = o.normals;
+  config["reference_normals"] = o.referenceNormals;
+  config["normal_stride"] = o.normalStride;
+
+  ManhattanEvalResult r;
+  r.report = {{"config", config}, {"summary", summary}, {"frames", perFrame}};
+  std::ostringstream t;
+  t << std::fixed << std::setprecision(2);
+  t << "manhattan-eval: " << config["input"].get<std::string>() << " (normals: " << o.normals << ")\n";
+  t << "  frames                     " << nFrames << " (" << nWithGt << " with ground truth)\n";
+  t << "  accepted by the tracker    " << nValid << " (" << 100.0 * nValid / nFrames << " %)\n";
+  if (haveErr) {
+    t << "  rotation error vs GT [deg] median " << summary["rotation_error_median_deg"].get<double>() << "  max "
+      << summary["rotation_error_max_deg"].get<double>() << "  mean " << summary["rotation_error_mean_deg"].get<double>()
+      << "  (" << errors.size() << " frames, relative to the first accepted frame)\n";
+  }
+  for (const auto& [stage, s] : summary["timings_ms"].items())
+    t << "  time " << std::left << std::setw(22) << stage << std::right << " median " << s["median_ms"].get<double>()
+      << " ms  mean " << s["mean_ms"].get<double>() << " ms\n";
+  if (referenceSource) {
+    const auto a = accuracy.summary();
+    t << "  normals " << o.normals << " vs " << o.referenceNormals << ": mean " << a.meanDeg << "  median "
+      << a.medianDeg << "  rmse " << a.rmseDeg << " deg; <11.25 " << a.under11_25 << "  <22.5 " << a.under22_5
+      << "  <30 " << a.under30 << "  (" << a.count << " px)\n";
+  }
+  r.text = t.str();
+  if (!o.outputJson.empty())
+    writeFileAtomically(o.outputJson, [&](std::ostream& os) { os << r.report.dump(2) << "\n"; });
+  if (!o.outputText.empty()) writeFileAtomically(o.outputText, [&](std::ostream& os) { os << r.text; });
+  return r;
+}
+
+}  // namespace pslam::manhattan
