@@ -36,6 +36,25 @@ int hammingDistance(const cv::Mat& a, int ia, const cv::Mat& b, int ib) {
   return hammingDistance256(a.ptr<uint8_t>(ia), b.ptr<uint8_t>(ib));
 }
 
+BestCandidate bestCandidate(const uint8_t* descriptor, const cv::Mat& descriptors,
+                            const std::vector<size_t>& candidates) {
+  requireOrbDescriptors(descriptors, "bestCandidate", "descriptors");
+  BestCandidate r;
+  for (size_t c : candidates) {
+    require(c < static_cast<size_t>(descriptors.rows), "bestCandidate",
+            "candidate " + std::to_string(c) + " out of range (" + std::to_string(descriptors.rows) + " rows)");
+    const int d = hammingDistance256(descriptor, descriptors.ptr<uint8_t>(static_cast<int>(c)));
+    if (d < r.distance) {
+      r.secondDistance = r.distance;
+      r.distance = d;
+      r.index = static_cast<int>(c);
+    } else if (d < r.secondDistance) {
+      r.secondDistance = d;
+    }
+  }
+  return r;
+}
+
 void InitMatchParams::check() const {
   const std::string ctx = "InitMatchParams";
   require(nnRatio > 0 && nnRatio <= 1, ctx, "nnRatio must be in (0, 1]");

@@ -46,6 +46,31 @@ TEST(Hamming, EqualsBitCountingAndOpenCv) {
   }
 }
 
+TEST(Hamming, BestCandidateEqualsExhaustiveSearch) {
+  std::mt19937 rng(22);
+  const cv::Mat pool = randomDescriptors(300, rng), query = randomDescriptors(20, rng);
+  std::uniform_int_distribution<int> pick(0, 299);
+  for (int q = 0; q < 20; ++q) {
+    std::vector<size_t> cand;
+    for (int k = 0; k < q; ++k) cand.push_back(static_cast<size_t>(pick(rng)));
+    const BestCandidate r = bestCandidate(query.ptr<uint8_t>(q), pool, cand);
+    std::vector<int> d;
+    for (size_t c : cand) d.push_back(hammingDistance(query, q, pool, static_cast<int>(c)));
+    if (cand.empty()) {
+      EXPECT_EQ(r.index, -1);
+      EXPECT_FALSE(r.accepted(256, 1.f));
+      continue;
+    }
+    const auto it = std::min_element(d.begin(), d.end());
+    EXPECT_EQ(r.distance, *it);
+    EXPECT_EQ(r.index, static_cast<int>(cand[it - d.begin()]));
+    std::vector<int> sorted = d;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_EQ(r.secondDistance, sorted.size() > 1 ? sorted[1] : 257);
+  }
+  EXPECT_THROW(bestCandidate(query.ptr<uint8_t>(0), pool, {300}), pslam::Error);
+}
+
 TEST(Hamming, ThreeLargestBins) {
   std::vector<std::vector<int>> h(30);
   h[3].resize(50);

@@ -23,6 +23,21 @@ struct IndexMatch {
   bool operator==(const IndexMatch& o) const { return i1 == o.i1 && i2 == o.i2 && distance == o.distance; }
 };
 
+/// Best and second-best candidate of one descriptor among `candidates` (rows of `descriptors`): the building block
+/// of ORB-SLAM's projection searches (FeatureGrid window -> best candidate -> threshold and ratio test).
+struct BestCandidate {
+  int index = -1;                ///< row of the best candidate, -1 if there were no candidates
+  int distance = 256 + 1;        ///< its Hamming distance (> 256 if none)
+  int secondDistance = 256 + 1;  ///< second-best distance (> 256 if fewer than two candidates)
+  /// ORB-SLAM's acceptance: distance <= maxDistance and distance < ratio * secondDistance.
+  bool accepted(int maxDistance, float ratio) const {
+    return index >= 0 && distance <= maxDistance &&
+           static_cast<float>(distance) < ratio * static_cast<float>(secondDistance);
+  }
+};
+/// Ties keep the earlier candidate. Throws pslam::Error for non-ORB descriptors or out-of-range candidates.
+BestCandidate bestCandidate(const uint8_t* descriptor, const cv::Mat& descriptors, const std::vector<size_t>& candidates);
+
 /// ORB-SLAM's matcher constants.
 constexpr int kOrbThLow = 50;    ///< TH_LOW: strict acceptance (initialization, fusion)
 constexpr int kOrbThHigh = 100;  ///< TH_HIGH: loose acceptance (tracking, relocalization)
