@@ -106,6 +106,7 @@ TEST(TwoViewInitializer, PureRotationFailsWithLowParallax) {
     EXPECT_EQ(r.failure, TwoViewFailure::LowParallax) << toString(r.failure) << ": " << r.message;
     // A pure rotation is a homography of the whole image, whatever the scene depth.
     EXPECT_EQ(r.model, TwoViewModel::Homography) << r.message;
+    std::cout << "[ pure rotation seed " << seed << " ] " << toString(r.failure) << ": " << r.message << "\n";
   }
 }
 
