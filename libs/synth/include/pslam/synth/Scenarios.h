@@ -1,0 +1,40 @@
+#pragma once
+// Scenario presets: a scene, a camera trajectory and the recording conventions of one kind of sequence.
+//   room       textured Manhattan room, handheld-like loop with fast turns (ICL-NUIM-like), 30 Hz
+//   lowtexture white Manhattan structure in a hall, seen near then far (TUM structure_notexture-like), 30 Hz
+//   street     street canyon with parked cars, pedestrians and stop-and-go traffic at a red light, 10 Hz
+//   corridor   70 m corridor loop around an inner block, returns to its start (HRBB4-like), 15 Hz
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "pslam/synth/Scene.h"
+
+namespace pslam::synth {
+
+struct ScenarioInfo {
+  std::string name;
+  std::string description;
+  double fps = 30.0;
+  double depthUnit = 1.0 / 5000.0;  ///< metres per u16 depth unit
+  double focalAt640 = 525.0;        ///< default fx = fy for a 640-pixel-wide image (scaled with the width)
+  int defaultFrames = 300;
+};
+
+struct Scenario {
+  ScenarioInfo info;
+  Scene scene;
+  /// Camera pose (T_world_cam, camera x right, y down, z forward) at scenario time t (seconds from 0).
+  std::function<Eigen::Isometry3d(double)> T_world_cam;
+};
+
+/// Names of the presets, the first one is the default.
+const std::vector<std::string>& scenarioNames();
+/// Info of a preset without building it. Throws pslam::Error for an unknown name (listing the known ones).
+ScenarioInfo scenarioInfo(const std::string& name);
+/// Builds a preset. `duration` (seconds) lets open-ended scenes (street) extend far enough; textures,
+/// placements of parked cars and pedestrians, traffic and jitter derive from `seed`.
+Scenario makeScenario(const std::string& name, std::uint32_t seed, double duration);
+
+}  // namespace pslam::synth

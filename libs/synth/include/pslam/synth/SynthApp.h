@@ -1,0 +1,90 @@
+#pragma once
+// The slam-synth application: renders a scenario and writes it as a rawlog following the contract
+// (DESIGN.md §3) with ground truth beside it.
+//
+// Outputs in <outDir>:
+//   <name>.rawlog + <name>_Images/     CAMERA (grey), DEPTH (u16, scenario depth unit), SEMANTIC (one-hot,
+//                                      Table 3.1), NORMALS (camera frame, encodeNormal)
+//   <name>_groundtruth.txt             TUM, camera-to-world, stamps equal to the CAMERA stamps
+//   <name>_Labels/LABEL_%06d.png       8-bit Cityscapes trainIds per frame (255 = unlabeled)
+//   <name>_synth.json                  effective options, intrinsics, depth unit, summary
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include <mrpt/config/CConfigFileBase.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "pslam/core/StageTimer.h"
+#include "pslam/synth/Renderer.h"
+#include "pslam/synth/Scenarios.h"
+
+namespace pslam::synth {
+
+struct SynthOptions {
+  std::string scenario = "room";
+  int frames = 0;          ///< 0 = the scenario's default length
+  int width = 640, height = 480;
+  double fx = 0, fy = 0;   ///< 0 = scenario default focal length scaled to the width
+  double cx = -1, cy = -1; ///< negative = image centre ((w-1)/2, (h-1)/2)
+  std::uint32_t seed = 1;
+  bool textured = true;
+  double noiseSigma = 0.0; ///< std of additive Gaussian image noise in grey levels
+  bool exposure = false;   ///< per-frame affine brightness change a*I+b (smooth in time, from the seed)
+  int supersampling = 2;
+  std::string antiAliasing = "adaptive";  ///< silhouettes | adaptive | full (see RenderOptions)
+  double aaContrast = 10.0;               ///< adaptive mode: grey-level contrast that triggers supersampling
+  std::filesystem::path outDir;
+  std::string name;        ///< empty = scenario name
+  std::filesystem::path preview;  ///< optional PNG: image | depth | normals | labels of the middle frame
+  bool progress = true;
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  /// Throws pslam::Error naming the key at fault.
+  void check() const;
+  std::string effectiveName() const { return name.empty() ? scenario : name; }
+  PinholeCamera camera() const;
+  AntiAliasing antiAliasingMode() const;
+  nlohmann::json toJson() const;
+};
+
+/// Affine exposure change of frame time t (seconds): gain a in about [0.75, 1.25] and offset b in about
+/// [-15, 15] grey levels, drifting smoothly (auto-exposure-like) from the seed.
+struct Exposure {
+  double gain = 1.0, offset = 0.0;
+  static Exposure at(double t, std::uint32_t seed);
+};
+
+/// Grey CAMERA image from rendered radiance: a*I+b, plus Gaussian noise (sigma grey levels, seeded), rounded
+/// and saturated to 8 bits.
+cv::Mat applySensor(const cv::Mat& radiance, const Exposure& exposure, double noiseSigma, std::uint64_t noiseSeed);
+
+/// Colour panel image | depth | normals | labels (each scaled to `panelWidth`) for documentation.
+cv::Mat makePreviewPanel(const cv::Mat& grey, const cv::Mat& depthMetres, const cv::Mat& normals,
+                         const cv::Mat& trainIds, int panelWidth = 320);
+/// Cityscapes colour (BGR) of a trainId.
+cv::Vec3b cityscapesColour(std::uint8_t trainId);
+
+struct SynthSummary {
+  std::size_t frames = 0;
+  double renderSeconds = 0, totalSeconds = 0;        ///< wall clock
+  double renderCpuSeconds = 0, totalCpuSeconds = 0;  ///< process CPU time (the machine may be shared)
+  double meanDynamicFraction = 0, meanSkyFraction = 0, meanValidDepthFraction = 0, meanFastCorners = 0;
+  std::filesystem::path rawlog, groundTruth, labelsDir, info;
+  StageTimings timings;
+  nlohmann::json toJson() const;
+  std::string toText() const;
+};
+
+class SynthApp {
+ public:
+  explicit SynthApp(SynthOptions options);
+  SynthSummary run();
+
+ private:
+  SynthOptions options_;
+};
+
+}  // namespace pslam::synth

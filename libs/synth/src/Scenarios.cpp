@@ -1,0 +1,449 @@
+#include "pslam/synth/Scenarios.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "pslam/core/Error.h"
+#include "pslam/synth/Motion.h"
+
+namespace pslam::synth {
+
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+std::uint8_t id(TrainId t) { return static_cast<std::uint8_t>(t); }
+
+/// Seeded helpers: every random choice of a scenario comes from one std::mt19937.
+struct Dice {
+  std::mt19937 rng;
+  explicit Dice(std::uint32_t seed) : rng(seed) {}
+  double uniform(double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); }
+  bool chance(double p) { return uniform(0, 1) < p; }
+  std::uint32_t seed() { return static_cast<std::uint32_t>(rng()); }
+};
+
+Material material(TextureKind kind, TrainId cls, std::uint32_t seed, float albedo, float contrast,
+                  std::initializer_list<float> params = {}) {
+  Material m;
+  m.kind = kind;
+  m.trainId = id(cls);
+  m.seed = seed;
+  m.albedo = albedo;
+  m.contrast = contrast;
+  int i = 0;
+  for (float p : params) m.param[i++] = p;
+  return m;
+}
+
+Eigen::Isometry3d poseXYYaw(double x, double y, double yaw) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw, Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Vector3d(x, y, 0);
+  return T;
+}
+
+BoxPart part(const Vector3d& size, const Vector3d& bottomCentre, int material) {
+  BoxPart p;
+  p.size = size;
+  p.T_object_box.translation() = bottomCentre + Vector3d(0, 0, 0.5 * size.z());
+  p.material = material;
+  return p;
+}
+
+/// Closed room [0,X]x[0,Y]x[0,Z] with inward-facing textured walls.
+void addRoomShell(Scene& s, double X, double Y, double Z, int floorMat, const int wallMats[4], int ceilingMat) {
+  s.addFloor(0, 0, X, Y, 0, floorMat);
+  s.addFloor(0, 0, X, Y, Z, ceilingMat);
+  s.addWall({0, 0}, {X, 0}, 0, Z, wallMats[0]);
+  s.addWall({X, 0}, {X, Y}, 0, Z, wallMats[1]);
+  s.addWall({X, Y}, {0, Y}, 0, Z, wallMats[2]);
+  s.addWall({0, Y}, {0, 0}, 0, Z, wallMats[3]);
+}
+
+// ------------------------------------------------------------------------------------------------ room
+Scenario makeRoom(std::uint32_t seed, bool lowTextureVariant) {
+  Dice dice(seed);
+  Scenario sc;
+  Scene& s = sc.scene;
+  if (!lowTextureVariant) {
+    sc.info = scenarioInfo("room");
+    const double X = 6.0, Y = 5.0, Z = 2.8;
+    const int floor = s.addMaterial(material(TextureKind::Tiles, TrainId::Road, dice.seed(), 0.55f, 0.12f));
+    const int ceiling = s.addMaterial(material(TextureKind::Ceiling, TrainId::Wall, dice.seed(), 0.8f, 0.03f));
+    const int walls[4] = {
+        s.addMaterial(material(TextureKind::PosterWall, TrainId::Wall, dice.seed(), 0.7f, 0.08f)),
+        s.addMaterial(material(TextureKind::Bricks, TrainId::Wall, dice.seed(), 0.5f, 0.15f)),
+        s.addMaterial(material(TextureKind::PosterWall, TrainId::Wall, dice.seed(), 0.65f, 0.1f)),
+        s.addMaterial(material(TextureKind::CorridorWall, TrainId::Wall, dice.seed(), 0.72f, 0.06f, {2.5f}))};
+    addRoomShell(s, X, Y, Z, floor, walls, ceiling);
+    // Furniture (static, labelled building = "other static structure"; Cityscapes has no furniture class).
+    const int wood = s.addMaterial(material(TextureKind::Wood, TrainId::Building, dice.seed(), 0.45f, 0.35f));
+    const int wood2 = s.addMaterial(material(TextureKind::Wood, TrainId::Building, dice.seed(), 0.6f, 0.3f));
+    const int fabric = s.addMaterial(material(TextureKind::Plaster, TrainId::Building, dice.seed(), 0.35f, 0.5f));
+    const int screen = s.addMaterial(material(TextureKind::PosterWall, TrainId::Building, dice.seed(), 0.15f, 0.3f));
+    s.addStaticBox("table", {2.9, 2.6, 0}, {1.4, 0.8, 0.75}, 0.0, wood);
+    s.addStaticBox("box on table", {2.6, 2.5, 0.75}, {0.35, 0.25, 0.2}, 0.3, fabric);
+    s.addStaticBox("cabinet", {0.3, 4.0, 0}, {0.5, 1.2, 1.8}, 0.0, wood2);
+    s.addStaticBox("sofa", {4.5, 0.5, 0}, {2.0, 0.9, 0.8}, 0.0, fabric);
+    s.addStaticBox("shelf", {5.72, 3.5, 0}, {0.45, 2.0, 2.0}, 0.0, wood);
+    s.addStaticBox("screen", {3.0, 4.95, 1.0}, {1.4, 0.06, 0.8}, 0.0, screen);
+    // A loop through the room: translation first (parallax for initialization), then fast turns.
+    std::vector<CameraPath::Key> keys = {
+        {0, {1.0, 1.0, 1.5}, {4.5, 3.5, 1.0}},   {2, {1.7, 0.8, 1.45}, {4.8, 3.2, 1.0}},
+        {4, {2.6, 1.0, 1.5}, {5.9, 2.4, 1.3}},   {5, {3.0, 1.2, 1.5}, {3.6, 4.9, 1.4}},
+        {7, {4.2, 1.8, 1.55}, {1.8, 4.9, 1.0}},  {8, {4.6, 2.4, 1.5}, {0.1, 3.0, 1.2}},
+        {10, {4.0, 3.7, 1.4}, {0.1, 1.2, 1.0}},  {12, {2.8, 4.0, 1.45}, {3.0, 0.1, 1.0}},
+        {14, {1.5, 3.2, 1.5}, {5.9, 1.2, 1.2}},  {16, {1.0, 1.0, 1.5}, {4.5, 3.5, 1.0}}};
+    Jitter j;
+    j.angle = 0.01;
+    j.position = 0.008;
+    j.frequency = 1.2;
+    j.seed = dice.seed();
+    CameraPath path(keys, j, true);
+    sc.T_world_cam = [path](double t) { return path.pose(t); };
+    return sc;
+  }
+  // lowtexture: a hall with a Manhattan structure of near-uniform boards in the middle.
+  sc.info = scenarioInfo("lowtexture");
+  const double X = 14.0, Y = 13.0, Z = 4.0;
+  const int floor = s.addMaterial(material(TextureKind::Uniform, TrainId::Road, dice.seed(), 0.5f, 0.06f));
+  const int ceiling = s.addMaterial(material(TextureKind::Uniform, TrainId::Wall, dice.seed(), 0.75f, 0.03f));
+  int walls[4];
+  for (int& w : walls) w = s.addMaterial(material(TextureKind::Uniform, TrainId::Wall, dice.seed(), 0.7f, 0.04f));
+  addRoomShell(s, X, Y, Z, floor, walls, ceiling);
+  const int board = s.addMaterial(material(TextureKind::Uniform, TrainId::Building, dice.seed(), 0.85f, 0.03f));
+  s.addStaticBox("platform", {7.0, 6.4, 0}, {2.4, 0.8, 0.4}, 0.0, board);
+  s.addStaticBox("block", {6.3, 5.8, 0}, {0.8, 0.8, 1.2}, 0.0, board);
+  s.addStaticBox("step", {7.9, 5.6, 0}, {1.2, 0.6, 0.8}, 0.0, board);
+  s.addStaticBox("panel", {7.0, 7.2, 0}, {2.6, 0.1, 1.3}, 0.0, board);
+  s.addStaticBox("low box", {8.6, 6.9, 0}, {0.6, 0.9, 0.5}, 0.0, board);
+  // Near first (about 1.5 m), sliding sideways for parallax, then backing off to 4-5 m around the structure.
+  std::vector<CameraPath::Key> keys = {
+      {0.0, {5.4, 4.4, 1.2}, {7.0, 6.2, 0.5}},  {1.5, {6.0, 4.2, 1.25}, {7.2, 6.2, 0.5}},
+      {3.0, {7.4, 4.3, 1.3}, {7.0, 6.2, 0.5}},  {4.5, {8.8, 4.9, 1.35}, {7.0, 6.1, 0.5}},
+      {6.0, {9.6, 6.8, 1.5}, {7.0, 6.1, 0.5}},  {8.0, {10.8, 9.4, 1.8}, {7.0, 6.0, 0.5}},
+      {10.0, {8.0, 10.8, 1.8}, {7.0, 6.0, 0.5}}, {12.0, {4.6, 10.2, 1.7}, {7.0, 6.0, 0.6}},
+      {14.0, {3.2, 7.0, 1.6}, {7.0, 6.0, 0.6}}};
+  Jitter j;
+  j.angle = 0.006;
+  j.position = 0.005;
+  j.frequency = 1.0;
+  j.seed = dice.seed();
+  CameraPath path(keys, j, false);
+  sc.T_world_cam = [path](double t) { return path.pose(t); };
+  return sc;
+}
+
+// ------------------------------------------------------------------------------------------------ street
+struct Vehicle {
+  enum Kind { Car, Truck, Bus };
+};
+
+SceneObject makeVehicleObject(Scene& s, Dice& dice, Vehicle::Kind kind, const std::string& name) {
+  SceneObject o;
+  o.name = name;
+  const float paint = static_cast<float>(dice.uniform(0.08, 0.9));
+  if (kind == Vehicle::Car) {
+    const int body = s.addMaterial(material(TextureKind::CarBody, TrainId::Car, dice.seed(), paint, 0.05f));
+    const int cabin = s.addMaterial(material(TextureKind::CarCabin, TrainId::Car, dice.seed(), paint, 0.05f));
+    o.parts.push_back(part({4.2, 1.8, 0.8}, {0, 0, 0.15}, body));
+    o.parts.push_back(part({2.3, 1.6, 0.55}, {-0.3, 0, 0.95}, cabin));
+  } else if (kind == Vehicle::Truck) {
+    const int cab = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(), paint, 0.05f, {1.f}));
+    const int cargo = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(), 0.75f, 0.05f, {0.f}));
+    o.parts.push_back(part({2.0, 2.4, 2.6}, {3.7, 0, 0.4}, cab));
+    o.parts.push_back(part({7.2, 2.5, 3.0}, {-1.0, 0, 0.5}, cargo));
+  } else {
+    const int body = s.addMaterial(material(TextureKind::BusBody, TrainId::Bus, dice.seed(), paint, 0.05f, {1.f}));
+    o.parts.push_back(part({11.5, 2.5, 3.0}, {0, 0, 0.3}, body));
+  }
+  return o;
+}
+
+/// Speed keys of a vehicle that cruises at v from s0, brakes over `brake` seconds to stop at `stopAt`,
+/// waits until `go` and accelerates over `accel` seconds to `vAfter` (stop-and-go).
+SpeedProfile stopAndGo(double s0, double v, double stopAt, double brake, double go, double accel, double vAfter) {
+  const double tBrake = (stopAt - s0 - 0.5 * v * brake) / v;
+  require(tBrake > 0 && tBrake + brake < go, "street scenario", "inconsistent stop-and-go timing");
+  return SpeedProfile({0.0, tBrake, tBrake + brake, go, go + accel}, {v, v, 0.0, 0.0, vAfter}, s0);
+}
+
+Scenario makeStreet(std::uint32_t seed, double duration) {
+  Dice dice(seed);
+  Scenario sc;
+  sc.info = scenarioInfo("street");
+  Scene& s = sc.scene;
+  s.hasSky = true;
+  // Layout (x along the street, y left, z up): road |y| < 8 with lanes at y = -4.5, -1.5 (ours, +x) and
+  // +1.5, +4.5 (oncoming), parking strips at |y| in [6, 8]; sidewalks |y| in [8, 12]; facades at |y| = 12.
+  const double stopLine = 93.0, tGreen = 19.0;
+  const double egoCruise = 7.0;
+  const SpeedProfile ego = stopAndGo(0.0, egoCruise, 77.6, 4.0, tGreen + 2.5, 5.0, egoCruise);
+  const double xStart = -40.0;
+  const double xEnd = std::max(260.0, ego.distance(duration) + 160.0);
+
+  const int roadMat = s.addMaterial(material(TextureKind::Road, TrainId::Road, dice.seed(), 0.28f, 0.25f,
+                                             {static_cast<float>(stopLine + 1.0 - xStart),
+                                              static_cast<float>(stopLine + 5.0 - xStart),
+                                              static_cast<float>(stopLine - xStart)}));
+  s.addFloor(xStart, -8, xEnd, 8, 0, roadMat);
+  for (int side : {-1, 1}) {
+    const int walk = s.addMaterial(material(TextureKind::Sidewalk, TrainId::Sidewalk, dice.seed(), 0.55f, 0.15f));
+    s.addFloor(xStart, side > 0 ? 8 : -12, xEnd, side > 0 ? 12 : -8, 0.15, walk);
+    s.addWall({xStart, side * 8.0}, {xEnd, side * 8.0}, 0, 0.15, walk);  // kerb
+    // Facades: a row of buildings of varied height and style.
+    for (double x = xStart; x < xEnd;) {
+      const double len = std::min(dice.uniform(12, 30), xEnd - x);
+      const double h = dice.uniform(9, 24);
+      const int facade = s.addMaterial(material(
+          TextureKind::Facade, TrainId::Building, dice.seed(), static_cast<float>(dice.uniform(0.35, 0.7)), 0.12f,
+          {static_cast<float>(dice.uniform(3.0, 3.6)), static_cast<float>(dice.uniform(2.2, 3.2)),
+           static_cast<float>(dice.uniform(0.4, 0.6)), dice.chance(0.5) ? 1.f : 0.f}));
+      if (side > 0) s.addWall({x + len, 12}, {x, 12}, 0, h, facade);
+      else s.addWall({x, -12}, {x + len, -12}, 0, h, facade);
+      x += len;
+    }
+    // Street furniture: lamp posts and trees on the sidewalk.
+    const int poleMat = s.addMaterial(material(TextureKind::Plaster, TrainId::Pole, dice.seed(), 0.45f, 0.2f));
+    const int leaves = s.addMaterial(material(TextureKind::Foliage, TrainId::Vegetation, dice.seed(), 0.3f, 0.3f));
+    for (double x = xStart + 10; x < xEnd; x += 25) {
+      s.addStaticBox("lamp post", {x, side * 8.5, 0.15}, {0.16, 0.16, 6.0}, 0, poleMat);
+      if (dice.chance(0.6)) {
+        const double xt = x + dice.uniform(8, 16);
+        s.addStaticBox("trunk", {xt, side * 9.2, 0.15}, {0.3, 0.3, 2.6}, 0, leaves);
+        s.addStaticBox("canopy", {xt, side * 9.2, 2.6}, {2.6, 2.4, 2.4}, dice.uniform(0, 1.5), leaves);
+      }
+    }
+  }
+  s.addWall({xEnd, -12}, {xEnd, 12}, 0, 22,
+            s.addMaterial(material(TextureKind::Facade, TrainId::Building, dice.seed(), 0.55f, 0.12f, {3.3f, 2.6f, 0.5f, 1.f})));
+  // Traffic light and a sign at the stop line.
+  const int poleMat = s.addMaterial(material(TextureKind::Plaster, TrainId::Pole, dice.seed(), 0.3f, 0.1f));
+  const int lightMat = s.addMaterial(material(TextureKind::PosterWall, TrainId::TrafficLight, dice.seed(), 0.12f, 0.2f));
+  const int signMat = s.addMaterial(material(TextureKind::PosterWall, TrainId::TrafficSign, dice.seed(), 0.8f, 0.1f));
+  s.addStaticBox("traffic light pole", {stopLine + 0.5, -8.6, 0.15}, {0.18, 0.18, 3.3}, 0, poleMat);
+  s.addStaticBox("traffic light", {stopLine + 0.5, -8.6, 3.45}, {0.35, 0.35, 0.95}, 0, lightMat);
+  s.addStaticBox("sign pole", {stopLine - 20, -8.7, 0.15}, {0.08, 0.08, 2.2}, 0, poleMat);
+  s.addStaticBox("sign", {stopLine - 20, -8.7, 2.35}, {0.05, 0.7, 0.7}, 0, signMat);
+
+  // A vehicle's profile gives dir * x of its centre, so oncoming traffic (dir = -1) uses s0 = -x0.
+  auto addVehicle = [&](Vehicle::Kind kind, double lane, int dir, SpeedProfile profile, const std::string& name,
+                        bool moving) {
+    SceneObject o = makeVehicleObject(s, dice, kind, name);
+    o.moving = moving;
+    const double yaw = dir > 0 ? 0.0 : M_PI;
+    o.T_world_object = [profile, lane, dir, yaw](double t) { return poseXYYaw(dir * profile.distance(t), lane, yaw); };
+    s.addObject(std::move(o));
+  };
+  // Our direction: a queue at the red light that drives off at green (stop-and-go), and an overtaking car.
+  const double qFront = stopLine - 1.0;
+  const double q1 = qFront - 2.1, l1 = q1 - 4.2 - 2.0;
+  addVehicle(Vehicle::Car, -4.5, 1, stopAndGo(30, 7, q1, 4.0, tGreen, 4.0, 8.5), "queue car 1", true);
+  addVehicle(Vehicle::Car, -4.5, 1, stopAndGo(16, 7, l1, 4.0, tGreen + 1.0, 4.5, 8.0), "lead car", true);
+  const double truck = qFront - 4.7;
+  addVehicle(Vehicle::Truck, -1.5, 1, stopAndGo(40, 6, truck, 4.0, tGreen + 0.5, 6.0, 6.0), "truck", true);
+  addVehicle(Vehicle::Car, -1.5, 1, stopAndGo(-25, 11, truck - 4.7 - 2.0 - 2.1, 4.0, tGreen + 1.8, 4.5, 8.5),
+             "overtaking car", true);
+  // Oncoming traffic, flowing, with a bus.
+  for (double lane : {1.5, 4.5}) {
+    for (double x = 25 + dice.uniform(0, 20); x < xEnd + 150; x += dice.uniform(18, 40)) {
+      const Vehicle::Kind kind = (lane == 1.5 && dice.chance(0.15)) ? Vehicle::Bus : Vehicle::Car;
+      const double v = dice.uniform(7.5, 10.5);
+      addVehicle(kind, lane, -1, SpeedProfile({0.0}, {v}, -x), "oncoming", true);
+    }
+  }
+  // Parked cars on both parking strips: class car (potentially dynamic, Table 3.1) although they never move.
+  for (double side : {-7.0, 7.0})
+    for (double x = xStart + 5; x < xEnd - 5; x += dice.uniform(5.2, 7.5)) {
+      if (!dice.chance(0.7) || std::abs(x - stopLine - 3) < 8) continue;
+      // Mostly parked in the driving direction of their side; the profile holds dir * x (see addVehicle).
+      const int dir = dice.chance(0.8) == (side > 0) ? -1 : 1;
+      addVehicle(Vehicle::Car, side, dir, SpeedProfile({0.0}, {0.0}, dir * x), "parked car", false);
+    }
+  // Pedestrians: walkers along the sidewalks and a group crossing at the zebra while the cars wait.
+  auto addPerson = [&](std::function<Eigen::Isometry3d(double)> traj, bool moving) {
+    SceneObject o;
+    o.name = "person";
+    const int m = s.addMaterial(material(TextureKind::Person, TrainId::Person, dice.seed(), 0.5f, 0.1f,
+                                         {static_cast<float>(dice.uniform(0.08, 0.5)),
+                                          static_cast<float>(dice.uniform(0.1, 0.9))}));
+    o.parts.push_back(part({0.32, 0.5, dice.uniform(1.6, 1.9)}, {0, 0, 0}, m));
+    o.T_world_object = std::move(traj);
+    o.moving = moving;
+    s.addObject(std::move(o));
+  };
+  for (double side : {-1.0, 1.0})
+    for (double x = xStart; x < xEnd; x += dice.uniform(3, 10)) {
+      const double y = side * dice.uniform(9.6, 11.4);
+      const double v = dice.chance(0.15) ? 0.0 : dice.uniform(1.0, 1.6) * (dice.chance(0.5) ? 1 : -1);
+      const double x0 = x;
+      addPerson([x0, y, v](double t) { return poseXYYaw(x0 + v * t, y, v >= 0 ? 0.0 : M_PI); }, v != 0.0);
+    }
+  for (int k = 0; k < 5; ++k) {
+    const double x = stopLine + 1.5 + dice.uniform(0, 3);
+    const double dir = (k % 2 == 0) ? 1.0 : -1.0;
+    const double y0 = -dir * dice.uniform(9.5, 11);
+    const double start = dir > 0 ? dice.uniform(8, 11) : dice.uniform(3, 6);
+    const double v = dice.uniform(1.2, 1.6);
+    const double walk = 2 * std::abs(y0) / v;
+    const SpeedProfile prof({start, start + 1.0, start + walk, start + walk + 1.0}, {0.0, v, v, 0.0}, 0.0);
+    addPerson([x, y0, dir, prof](double t) { return poseXYYaw(x, y0 + dir * prof.distance(t), dir * M_PI / 2); }, true);
+  }
+
+  Jitter j;
+  j.angle = 0.003;
+  j.position = 0.01;
+  j.frequency = 2.0;
+  j.seed = dice.seed();
+  sc.T_world_cam = [ego, j](double t) {
+    const Vector3d pos(ego.distance(t), -4.5, 1.6);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = lookAtRotation(Vector3d(20.0, 0.0, -0.8), Vector3d::UnitZ());
+    T.translation() = pos;
+    // Road vibration scales with speed, so the camera is still while the car waits.
+    Jitter jj = j;
+    const double k = std::min(1.0, ego.speed(t) / 7.0);
+    jj.angle *= k;
+    jj.position *= k;
+    return applyJitter(T, jj, t);
+  };
+  return sc;
+}
+
+// ------------------------------------------------------------------------------------------------ corridor
+/// Point and tangent on the rounded rectangle [0,X]x[0,Y] (corner radius r), arc length s counter-clockwise
+/// from (r, 0).
+void roundedRectangle(double X, double Y, double r, double s, Vector2d& p, Vector2d& tangent) {
+  const double a = X - 2 * r, b = Y - 2 * r, q = 0.5 * M_PI * r;
+  const double L = 2 * a + 2 * b + 4 * q;
+  s = std::fmod(std::fmod(s, L) + L, L);
+  const Vector2d corners[4] = {{X - r, r}, {X - r, Y - r}, {r, Y - r}, {r, r}};
+  const Vector2d starts[4] = {{r, 0}, {X, r}, {X - r, Y}, {0, Y - r}};
+  const Vector2d dirs[4] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
+  const double lens[4] = {a, b, a, b};
+  for (int k = 0; k < 4; ++k) {
+    if (s <= lens[k]) {
+      p = starts[k] + s * dirs[k];
+      tangent = dirs[k];
+      return;
+    }
+    s -= lens[k];
+    if (s <= q) {
+      const double phi = s / r;  // turning left by phi from dirs[k]
+      const Vector2d out(dirs[k].y(), -dirs[k].x());  // right of the direction = away from the arc centre
+      p = corners[k] + r * (std::cos(phi) * out + std::sin(phi) * dirs[k]);
+      tangent = std::cos(phi) * dirs[k] - std::sin(phi) * out;
+      return;
+    }
+    s -= q;
+  }
+  p = starts[0];
+  tangent = dirs[0];
+}
+
+double corridorLoopLength() {
+  const double X = 24, Y = 12, r = 0.9;
+  return 2 * (X - 2 * r) + 2 * (Y - 2 * r) + 2 * M_PI * r;
+}
+
+Scenario makeCorridor(std::uint32_t seed) {
+  Dice dice(seed);
+  Scenario sc;
+  sc.info = scenarioInfo("corridor");
+  Scene& s = sc.scene;
+  const double X = 24, Y = 12, r = 0.9, w = 2.4, Z = 2.7;
+  const int floor = s.addMaterial(material(TextureKind::Tiles, TrainId::Road, dice.seed(), 0.5f, 0.1f));
+  const int ceiling = s.addMaterial(material(TextureKind::Ceiling, TrainId::Wall, dice.seed(), 0.8f, 0.03f));
+  s.addFloor(-w / 2, -w / 2, X + w / 2, Y + w / 2, 0, floor);
+  s.addFloor(-w / 2, -w / 2, X + w / 2, Y + w / 2, Z, ceiling);
+  const Vector2d c[4] = {{-w / 2, -w / 2}, {X + w / 2, -w / 2}, {X + w / 2, Y + w / 2}, {-w / 2, Y + w / 2}};
+  for (int k = 0; k < 4; ++k) {
+    const int m = s.addMaterial(material(TextureKind::CorridorWall, TrainId::Wall, dice.seed(),
+                                         static_cast<float>(dice.uniform(0.6, 0.75)), 0.06f,
+                                         {static_cast<float>(dice.uniform(3.5, 5.5))}));
+    s.addWall(c[k], c[(k + 1) % 4], 0, Z, m);
+  }
+  const int inner = s.addMaterial(material(TextureKind::CorridorWall, TrainId::Wall, dice.seed(), 0.68f, 0.06f, {4.2f}));
+  s.addStaticBox("inner block", {X / 2, Y / 2, 0}, {X - w, Y - w, Z}, 0, inner);
+  const double L = corridorLoopLength();
+  const double v = 1.2, ramp = 1.5;
+  const SpeedProfile speed({0.0, ramp}, {0.0, v}, 2.0);  // starts 2 m along the first straight, walking pace
+  Jitter j;
+  j.angle = 0.004;
+  j.position = 0.003;
+  j.frequency = 1.0;
+  j.seed = dice.seed();
+  (void)L;
+  sc.T_world_cam = [=](double t) {
+    const double sNow = speed.distance(std::max(t, 0.0));
+    Vector2d p, tan, pAhead, tanAhead;
+    roundedRectangle(X, Y, r, sNow, p, tan);
+    roundedRectangle(X, Y, r, sNow + 1.5, pAhead, tanAhead);  // look ahead: turns start before the corner
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    const Vector3d pos(p.x(), p.y(), 1.3);
+    const Vector3d target(pAhead.x() + 2.0 * tanAhead.x(), pAhead.y() + 2.0 * tanAhead.y(), 1.15);
+    T.linear() = lookAtRotation(target - pos, Vector3d::UnitZ());
+    T.translation() = pos;
+    return applyJitter(T, j, t);
+  };
+  return sc;
+}
+
+}  // namespace
+
+const std::vector<std::string>& scenarioNames() {
+  static const std::vector<std::string> names = {"room", "lowtexture", "street", "corridor"};
+  return names;
+}
+
+ScenarioInfo scenarioInfo(const std::string& name) {
+  ScenarioInfo i;
+  i.name = name;
+  if (name == "room") {
+    i.description = "textured Manhattan room (6 x 5 x 2.8 m), posters, bricks, tiles, furniture; handheld loop "
+                    "with fast turns (ICL-NUIM-like)";
+    i.fps = 30;
+    i.depthUnit = 1.0 / 5000.0;
+    i.focalAt640 = 481.2;
+    i.defaultFrames = 300;
+  } else if (name == "lowtexture") {
+    i.description = "near-uniform Manhattan structure of boxes in a plain hall, seen from ~1.5 m then 4-5 m "
+                    "(TUM structure_notexture-like)";
+    i.fps = 30;
+    i.depthUnit = 1.0 / 5000.0;
+    i.focalAt640 = 525.0;
+    i.defaultFrames = 420;
+  } else if (name == "street") {
+    i.description = "street canyon with facades, parked cars, walking and crossing pedestrians, oncoming traffic "
+                    "and a queue at a red light that stops and drives off (stop-and-go)";
+    i.fps = 10;
+    i.depthUnit = 1.0 / 1000.0;
+    i.focalAt640 = 400.0;
+    i.defaultFrames = 300;
+  } else if (name == "corridor") {
+    i.description = "70 m corridor loop (24 x 12 m) around an inner block with doors and notice boards; the "
+                    "camera returns to its start, so drift is visible (HRBB4-like)";
+    i.fps = 15;
+    i.depthUnit = 1.0 / 5000.0;
+    i.focalAt640 = 450.0;
+    i.defaultFrames = static_cast<int>(std::ceil((corridorLoopLength() / 1.2 + 0.75 + 1.0) * 15));
+  } else {
+    std::string known;
+    for (const auto& n : scenarioNames()) known += (known.empty() ? "" : ", ") + n;
+    throw Error("scenario '" + name + "' is unknown (known: " + known + ")");
+  }
+  return i;
+}
+
+Scenario makeScenario(const std::string& name, std::uint32_t seed, double duration) {
+  const ScenarioInfo info = scenarioInfo(name);  // validates the name
+  if (name == "room") return makeRoom(seed, false);
+  if (name == "lowtexture") return makeRoom(seed, true);
+  if (name == "street") return makeStreet(seed, duration);
+  return makeCorridor(seed);
+}
+
+}  // namespace pslam::synth

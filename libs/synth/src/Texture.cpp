@@ -1,0 +1,394 @@
+#include "pslam/synth/Texture.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pslam::synth {
+
+namespace {
+
+inline std::uint32_t mixBits(std::uint32_t h) {
+  // Integer finaliser (lowbias32): good avalanche at a few instructions, so lattice values look independent.
+  h ^= h >> 16;
+  h *= 0x7feb352dU;
+  h ^= h >> 15;
+  h *= 0x846ca68bU;
+  h ^= h >> 16;
+  return h;
+}
+
+inline float lattice(std::int64_t x, std::int64_t y, std::uint32_t seed) {
+  // Odd multipliers decorrelate the axes before one finaliser round (hot path: 4 calls per noise octave).
+  const std::uint32_t h = mixBits(static_cast<std::uint32_t>(x) * 0x8da6b343U + static_cast<std::uint32_t>(y) * 0xd8163841U +
+                                  seed * 0xcb1ab31fU);
+  return static_cast<float>(h) * (1.0f / 4294967296.0f);
+}
+
+/// floor() without a libm call (the x86-64 baseline has no SSE4.1 round instruction).
+inline double fastFloor(double x) {
+  const double t = static_cast<double>(static_cast<std::int64_t>(x));
+  return t > x ? t - 1.0 : t;
+}
+
+inline float valueNoiseInline(double x, double y, std::uint32_t seed) {
+  const double fx = fastFloor(x), fy = fastFloor(y);
+  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
+  const float u0 = static_cast<float>(x - fx), v0 = static_cast<float>(y - fy);
+  const float u = u0 * u0 * (3.0f - 2.0f * u0), v = v0 * v0 * (3.0f - 2.0f * v0);
+  const float a = lattice(ix, iy, seed), b = lattice(ix + 1, iy, seed);
+  const float c = lattice(ix, iy + 1, seed), d = lattice(ix + 1, iy + 1, seed);
+  const float ab = a + (b - a) * u, cd = c + (d - c) * u;
+  return ab + (cd - ab) * v;
+}
+
+inline double clamp01(double v) { return v < 0 ? 0 : (v > 1 ? 1 : v); }
+inline double smooth(double u) { return u * u * (3.0 - 2.0 * u); }
+
+/// Coverage in [0,1] of the grout/mortar line of width `gap` centred on multiples of `period`, box-filtered
+/// over `footprint` (analytic anti-aliasing); `index` receives the cell number. Beyond the Nyquist limit the
+/// line is replaced by its mean coverage.
+double gridLine(double x, double period, double gap, double footprint, std::int64_t& index) {
+  const double q = std::floor(x / period);
+  index = static_cast<std::int64_t>(q);
+  if (footprint > 0.5 * period) return gap / period;
+  const double u = x - q * period;
+  const double d = std::min(u, period - u);
+  return clamp01((0.5 * gap - d) / std::max(footprint, 1e-6) + 0.5);
+}
+
+/// Box-filtered indicator of [a,b] at x.
+double interval(double x, double a, double b, double footprint) {
+  const double fp = std::max(footprint, 1e-6);
+  return clamp01((x - a) / fp + 0.5) * clamp01((b - x) / fp + 0.5);
+}
+
+double rectCoverage(const SurfacePoint& p, double s0, double s1, double t0, double t1) {
+  return interval(p.s, s0, s1, p.footprint) * interval(p.t, t0, t1, p.footprint);
+}
+
+double lerp(double a, double b, double w) { return a + (b - a) * w; }
+
+/// Ink coverage of printed text lines inside a block (posters, notices, plates): rows of "words".
+double textInk(double s, double t, double lineHeight, std::uint32_t seed, double footprint) {
+  if (footprint > 0.4 * lineHeight) return 0.25;  // unresolved: mean ink
+  const double row = std::floor(t / lineHeight);
+  const double v = t / lineHeight - row;
+  const double wordLen = 2.5 * lineHeight;
+  const double word = std::floor(s / wordLen);
+  if (hashUnit(static_cast<std::int64_t>(word), static_cast<std::int64_t>(row), seed) < 0.3f) return 0.0;
+  const double inRow = interval(v * lineHeight, 0.2 * lineHeight, 0.8 * lineHeight, footprint);
+  const double inWord = interval(s - word * wordLen, 0.0, 0.8 * wordLen, footprint);
+  return inRow * inWord;
+}
+
+float bricks(const Material& m, const SurfacePoint& p) {
+  const double L = 0.25, H = 0.075, gap = 0.012;
+  std::int64_t row = 0, col = 0;
+  const double mortarT = gridLine(p.t, H + gap, gap, p.footprint, row);
+  const double offset = (row & 1) ? 0.5 * (L + gap) : 0.0;
+  const double mortarS = gridLine(p.s + offset, L + gap, gap, p.footprint, col);
+  const double mortar = std::max(mortarT, mortarS);
+  const double tint = m.albedo * (0.75 + 0.5 * hashUnit(col, row, m.seed));
+  const double brick = tint * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed + 7, 8.0, 4, p.footprint));
+  return static_cast<float>(lerp(brick, 0.72, mortar));
+}
+
+float facade(const Material& m, const SurfacePoint& p) {
+  // param: [0] storey height, [1] window pitch, [2] window width fraction, [3] 1 = bricks, else plaster.
+  double base = m.param[3] > 0.5f ? bricks(m, p)
+                                  : m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 1.0, 7, p.footprint));
+  const double storey = m.param[0] > 0 ? m.param[0] : 3.2;
+  const double pitch = m.param[1] > 0 ? m.param[1] : 2.6;
+  const double widthFrac = m.param[2] > 0 ? m.param[2] : 0.5;
+  if (p.s < 0.6 || p.s > p.sizeS - 0.6 || p.t > p.sizeT - 0.8) return static_cast<float>(base);
+  const auto floorIdx = static_cast<std::int64_t>(std::floor(p.t / storey));
+  const auto col = static_cast<std::int64_t>(std::floor((p.s - 0.6) / pitch));
+  const double cs = 0.6 + (col + 0.5) * pitch;  // window centre along s
+  const double ws = 0.5 * widthFrac * pitch * (floorIdx == 0 ? 1.4 : 1.0);
+  const double t0 = floorIdx * storey + (floorIdx == 0 ? 0.4 : 0.9);
+  const double t1 = floorIdx * storey + storey - 0.5;
+  const double frame = rectCoverage(p, cs - ws - 0.08, cs + ws + 0.08, t0 - 0.08, t1 + 0.08);
+  if (frame <= 0) return static_cast<float>(base);
+  const double glassCov = rectCoverage(p, cs - ws, cs + ws, t0, t1);
+  // Glass: dark with a soft sky reflection; some windows lit or with blinds (per-window hash).
+  const float h = hashUnit(col, floorIdx, m.seed + 31);
+  double glass = 0.10 + 0.12 * (0.5 + 0.5 * fractalNoise(p.s * 0.5, p.t * 0.5, m.seed + 3, 0.6, 3, p.footprint));
+  if (h > 0.8f) glass = 0.55;                                         // lit
+  else if (h > 0.6f) glass = lerp(glass, 0.6, interval(std::fmod(p.t, 0.08), 0.0, 0.05, p.footprint));  // blinds
+  const double mullion = interval(p.s, cs - 0.03, cs + 0.03, p.footprint);
+  glass = lerp(glass, 0.8, mullion);
+  const double framed = lerp(0.82, glass, glassCov);
+  return static_cast<float>(lerp(base, framed, frame));
+}
+
+float road(const Material& m, const SurfacePoint& p) {
+  // Asphalt; s along the road, t across. Lane lines relative to the centre t = sizeT/2:
+  // centre double line, dashed lane dividers at +-3 m, solid parking edges at +-6 m.
+  // param: [0],[1] zebra crossing start/end along s, [2] stop line s (ego side, t < centre), [3] unused.
+  double a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 0.7, 9, p.footprint));
+  const double y = p.t - 0.5 * p.sizeT;
+  const double fp = p.footprint;
+  double paint = 0;
+  paint = std::max(paint, interval(std::abs(y), 0.06, 0.18, fp));  // double centre line
+  paint = std::max(paint, interval(std::abs(y), 5.92, 6.08, fp));  // parking edges
+  const double dash = interval(std::fmod(std::fmod(p.s, 9.0) + 9.0, 9.0), 0.0, 3.0, fp);
+  if (fp < 3.0) paint = std::max(paint, dash * interval(std::abs(y), 2.94, 3.06, fp));
+  else paint = std::max(paint, interval(std::abs(y), 2.94, 3.06, fp) / 3.0);
+  if (m.param[1] > m.param[0]) {
+    const double inZebra = interval(p.s, m.param[0], m.param[1], fp) * interval(std::abs(y), 0.0, 6.0, fp);
+    const double band = fp < 0.5 ? interval(std::fmod(y + 100.0, 1.0), 0.0, 0.5, fp) : 0.5;
+    paint = std::max(paint, inZebra * band);
+  }
+  if (m.param[2] > 0) paint = std::max(paint, interval(p.s, m.param[2] - 0.4, m.param[2], fp) * interval(y, -6.0, 0.0, fp));
+  // Worn paint: multiply by a noisy factor so markings are not perfectly uniform.
+  const double wear = 0.8 + 0.15 * fractalNoise(p.s, p.t, m.seed + 5, 3.0, 4, fp);
+  return static_cast<float>(lerp(a, wear, paint));
+}
+
+float carBody(const Material& m, const SurfacePoint& p) {
+  double a = m.albedo * (1.0 + 0.05 * fractalNoise(p.s, p.t, m.seed, 2.0, 3, p.footprint));
+  const double fp = p.footprint;
+  if (p.face == 2 || p.face == 3) {  // sides: door seams, sills, wheels
+    const double seam = std::max({interval(p.s, 0.42 * p.sizeS - 0.006, 0.42 * p.sizeS + 0.006, fp),
+                                  interval(p.s, 0.66 * p.sizeS - 0.006, 0.66 * p.sizeS + 0.006, fp),
+                                  interval(p.t, 0.62 * p.sizeT - 0.005, 0.62 * p.sizeT + 0.005, fp)});
+    a = lerp(a, 0.05, 0.8 * seam);
+    a = lerp(a, 0.08, interval(p.t, 0.0, 0.12, fp));  // dark sill
+    for (double cs : {0.75, p.sizeS - 0.75}) {
+      const double r = std::hypot(p.s - cs, p.t - 0.18);
+      const double tyre = clamp01((0.34 - r) / std::max(fp, 1e-6) + 0.5);
+      const double rim = clamp01((0.2 - r) / std::max(fp, 1e-6) + 0.5);
+      a = lerp(a, lerp(0.05, 0.55, rim), tyre);
+    }
+    const double handle = rectCoverage(p, 0.47 * p.sizeS, 0.47 * p.sizeS + 0.15, 0.55 * p.sizeT, 0.58 * p.sizeT);
+    a = lerp(a, 0.2, handle);
+  } else if (p.face == 0 || p.face == 1) {  // back / front: lamps and number plate
+    const bool front = p.face == 1;
+    const double lamp = std::max(rectCoverage(p, 0.08, 0.38, 0.5 * p.sizeT, 0.72 * p.sizeT),
+                                 rectCoverage(p, p.sizeS - 0.38, p.sizeS - 0.08, 0.5 * p.sizeT, 0.72 * p.sizeT));
+    a = lerp(a, front ? 0.9 : 0.3, lamp);
+    const double c = 0.5 * p.sizeS;
+    const double plate = rectCoverage(p, c - 0.26, c + 0.26, 0.2 * p.sizeT, 0.2 * p.sizeT + 0.11);
+    if (plate > 0) {
+      const double ink = textInk(p.s - (c - 0.24), p.t - 0.2 * p.sizeT - 0.01, 0.09, m.seed + 11, fp);
+      a = lerp(a, lerp(0.85, 0.1, ink), plate);
+    }
+    a = lerp(a, 0.1, interval(p.t, 0.0, 0.1, fp));  // bumper shadow
+  }
+  return static_cast<float>(a);
+}
+
+float carCabin(const Material& m, const SurfacePoint& p) {
+  if (p.face >= 4) return static_cast<float>(m.albedo);  // roof
+  const double fp = p.footprint;
+  const double glass = 0.12 + 0.15 * (0.5 + 0.5 * fractalNoise(p.s, p.t, m.seed + 9, 0.8, 3, fp));
+  double inGlass = rectCoverage(p, 0.1, p.sizeS - 0.1, 0.06, p.sizeT - 0.06);
+  if (p.face == 2 || p.face == 3) inGlass *= 1.0 - interval(p.s, 0.5 * p.sizeS - 0.05, 0.5 * p.sizeS + 0.05, fp);  // B pillar
+  return static_cast<float>(lerp(m.albedo, glass, inGlass));
+}
+
+float busBody(const Material& m, const SurfacePoint& p) {
+  const double fp = p.footprint;
+  double a = m.albedo * (1.0 + 0.05 * fractalNoise(p.s, p.t, m.seed, 1.0, 3, fp));
+  if (p.face >= 4) return static_cast<float>(a);
+  const bool windows = m.param[0] > 0.5f;
+  if (p.face == 2 || p.face == 3) {
+    if (windows) {
+      double band = rectCoverage(p, 0.3, p.sizeS - 0.3, 0.45 * p.sizeT, 0.88 * p.sizeT);
+      if (fp < 0.05) band *= 1.0 - interval(std::fmod(p.s, 1.3), 0.0, 0.1, fp);
+      a = lerp(a, 0.12 + 0.12 * (0.5 + 0.5 * fractalNoise(p.s, p.t, m.seed + 1, 0.5, 3, fp)), band);
+    } else {
+      // Cargo box with a printed advertisement: large high-contrast blobs and text.
+      const double ad = rectCoverage(p, 0.8, p.sizeS - 0.8, 0.3 * p.sizeT, 0.9 * p.sizeT);
+      if (ad > 0) {
+        const double blob = 0.5 + 0.5 * std::tanh(4.0 * fractalNoise(p.s, p.t, m.seed + 2, 0.8, 5, fp));
+        const double ink = textInk(p.s, p.t, 0.25, m.seed + 3, fp);
+        a = lerp(a, lerp(lerp(0.15, 0.85, blob), 0.05, ink * (p.t < 0.45 * p.sizeT ? 1.0 : 0.0)), ad);
+      }
+    }
+    for (double cs : {1.3, p.sizeS - 1.6}) {
+      const double r = std::hypot(p.s - cs, p.t - 0.15);
+      a = lerp(a, 0.05, clamp01((0.5 - r) / std::max(fp, 1e-6) + 0.5));
+    }
+  } else if (windows || p.face == 1) {
+    a = lerp(a, 0.15, rectCoverage(p, 0.15, p.sizeS - 0.15, 0.45 * p.sizeT, 0.92 * p.sizeT));
+  }
+  return static_cast<float>(a);
+}
+
+float person(const Material& m, const SurfacePoint& p) {
+  const double h = p.t / std::max(p.sizeT, 1e-6);
+  const double fp = p.footprint;
+  double a;
+  if (h < 0.47) a = m.param[0];
+  else if (h < 0.84) a = m.param[1];
+  else if (h < 0.93) a = 0.55;
+  else a = 0.15;  // hair
+  if (h < 0.47 && (p.face == 0 || p.face == 1))  // gap between the legs
+    a = lerp(a, 0.25, interval(p.s, 0.45 * p.sizeS, 0.55 * p.sizeS, fp) * interval(h, 0.0, 0.4, fp / p.sizeT));
+  return static_cast<float>(a * (1.0 + 0.15 * fractalNoise(p.s, p.t, m.seed, 4.0, 4, fp)));
+}
+
+float corridorWall(const Material& m, const SurfacePoint& p) {
+  // param: [0] door pitch along s (m).
+  const double fp = p.footprint;
+  double a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 1.0, 7, fp));
+  const double pitch = m.param[0] > 0 ? m.param[0] : 5.0;
+  const double cell = std::floor(p.s / pitch);
+  const double u = p.s - cell * pitch;
+  const auto ci = static_cast<std::int64_t>(cell);
+  const double doorAt = 0.4 + (pitch - 2.0) * hashUnit(ci, 0, m.seed + 1);
+  const bool hasDoor = hashUnit(ci, 1, m.seed + 1) < 0.7f;
+  if (hasDoor) {
+    const double frameCov = interval(u, doorAt - 0.06, doorAt + 0.96, fp) * interval(p.t, 0.0, 2.11, fp);
+    const double doorCov = interval(u, doorAt, doorAt + 0.9, fp) * interval(p.t, 0.0, 2.05, fp);
+    const double wood = 0.35 + 0.1 * hashUnit(ci, 2, m.seed) +
+                        0.08 * fractalNoise(u * 0.3, p.t * 6.0, m.seed + ci, 2.0, 5, fp);
+    const double handle = rectCoverage(p, cell * pitch + doorAt + 0.75, cell * pitch + doorAt + 0.85, 1.0, 1.04);
+    a = lerp(a, 0.85, frameCov);
+    a = lerp(a, lerp(wood, 0.8, handle), doorCov);
+    // Room number plate beside the door.
+    const double plate = interval(u, doorAt + 1.05, doorAt + 1.25, fp) * interval(p.t, 1.5, 1.62, fp);
+    if (plate > 0) a = lerp(a, lerp(0.9, 0.1, textInk(u, p.t, 0.04, m.seed + ci, fp)), plate);
+  } else {
+    // Notice board with papers.
+    const double b0 = 0.5, b1 = std::min(pitch - 0.3, 2.0);
+    const double board = interval(u, b0, b1, fp) * interval(p.t, 1.0, 1.8, fp);
+    if (board > 0) {
+      double cork = 0.45 + 0.12 * fractalNoise(u, p.t, m.seed + 5, 20.0, 3, fp);
+      for (int k = 0; k < 4; ++k) {
+        const double ps = b0 + 0.05 + (b1 - b0 - 0.3) * hashUnit(ci, 10 + k, m.seed);
+        const double pt = 1.05 + 0.4 * hashUnit(ci, 20 + k, m.seed);
+        const double paper = interval(u, ps, ps + 0.21, fp) * interval(p.t, pt, pt + 0.3, fp);
+        if (paper > 0) cork = lerp(cork, lerp(0.92, 0.15, textInk(u - ps, p.t - pt, 0.02, m.seed + k, fp)), paper);
+      }
+      a = lerp(a, cork, board);
+    }
+  }
+  a = lerp(a, 0.2, interval(p.t, -1.0, 0.1, fp));  // skirting board
+  return static_cast<float>(a);
+}
+
+float posterWall(const Material& m, const SurfacePoint& p) {
+  const double fp = p.footprint;
+  double a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 1.0, 8, fp));
+  const double cellW = 1.7;
+  const auto ci = static_cast<std::int64_t>(std::floor(p.s / cellW));
+  if (hashUnit(ci, 0, m.seed + 3) > 0.6f) return static_cast<float>(a);
+  const double w = 0.45 + 0.7 * hashUnit(ci, 1, m.seed + 3);
+  const double h = 0.5 + 0.6 * hashUnit(ci, 2, m.seed + 3);
+  const double s0 = ci * cellW + (cellW - w) * hashUnit(ci, 3, m.seed + 3);
+  const double t0 = 0.9 + 0.5 * hashUnit(ci, 4, m.seed + 3);
+  const double cov = rectCoverage(p, s0, s0 + w, t0, t0 + h);
+  if (cov <= 0) return static_cast<float>(a);
+  // Poster: a picture of contrasted blobs in the upper part, text lines below, and a light border.
+  const std::uint32_t ps = m.seed + 1000u * static_cast<std::uint32_t>(ci);
+  const double picture = 0.5 + 0.45 * std::tanh(3.0 * fractalNoise(p.s, p.t, ps, 3.0, 6, fp));
+  const double textZone = interval(p.t, t0 + 0.08, t0 + 0.3 * h, fp) * interval(p.s, s0 + 0.05, s0 + w - 0.05, fp);
+  double content = lerp(picture, lerp(0.9, 0.1, textInk(p.s - s0, p.t, 0.03, ps + 1, fp)), textZone);
+  const double inner = rectCoverage(p, s0 + 0.03, s0 + w - 0.03, t0 + 0.03, t0 + h - 0.03);
+  content = lerp(0.92, content, inner);
+  return static_cast<float>(lerp(a, content, cov));
+}
+
+}  // namespace
+
+int semanticGroupOfTrainId(std::uint8_t id) {
+  if (id <= 9) return 0;
+  if (id == static_cast<std::uint8_t>(TrainId::Sky)) return 2;
+  if (id <= 18) return 1;
+  return 2;  // unlabeled: no evidence either way; treat as invalid (never used for mapping)
+}
+
+float hashUnit(std::int64_t a, std::int64_t b, std::uint32_t seed) {
+  return lattice(a * 0x632BE5ABLL + 17, b, seed ^ 0x5bd1e995U);
+}
+
+float valueNoise(double x, double y, std::uint32_t seed) { return valueNoiseInline(x, y, seed); }
+
+float fractalNoise(double x, double y, std::uint32_t seed, double baseFrequency, int octaves, double footprint) {
+  // Normalisation over all octaves (not only the resolved ones) keeps the contrast of the coarse octaves
+  // independent of distance; the persistence 0.55 gives a roughly 1/f spectrum like natural surfaces.
+  float sum = 0, norm = 0, amp = 1;
+  float f = static_cast<float>(baseFrequency);
+  const float fp = static_cast<float>(footprint);
+  bool active = true;
+  for (int o = 0; o < octaves; ++o) {
+    norm += amp;
+    if (active) {
+      // Fade octaves whose wavelength approaches two footprints (Nyquist): r in [0.25, 0.5] -> weight 1..0.
+      const float r = f * fp;
+      const float w = r < 0.25f ? 1.0f : (r > 0.5f ? 0.0f : (0.5f - r) * 4.0f);
+      if (w <= 0) active = false;
+      else sum += amp * w * (valueNoiseInline(x * f + 17.13 * o, y * f - 9.71 * o, seed + 101U * o) - 0.5f);
+    }
+    amp *= 0.55f;
+    f *= 2.0f;
+  }
+  return 2.0f * sum / norm;
+}
+
+double smoothNoise1D(double x, std::uint32_t seed) {
+  const double fx = fastFloor(x);
+  const auto ix = static_cast<std::int64_t>(fx);
+  const double u = smooth(x - fx);
+  return 2.0 * lerp(lattice(ix, 7, seed), lattice(ix + 1, 7, seed), u) - 1.0;
+}
+
+float albedoAt(const Material& m, const SurfacePoint& p) {
+  double a = m.albedo;
+  switch (m.kind) {
+    case TextureKind::Uniform:
+      a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 0.5, 6, p.footprint));
+      break;
+    case TextureKind::Plaster:
+      a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 1.0, 8, p.footprint));
+      break;
+    case TextureKind::Bricks: a = bricks(m, p); break;
+    case TextureKind::Tiles: {
+      std::int64_t i = 0, j = 0;
+      const double g = std::max(gridLine(p.s, 0.4, 0.006, p.footprint, i), gridLine(p.t, 0.4, 0.006, p.footprint, j));
+      const double tile = m.albedo * (0.85 + 0.3 * hashUnit(i, j, m.seed)) *
+                          (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed + 1, 3.0, 6, p.footprint));
+      a = lerp(tile, 0.3, g);
+      break;
+    }
+    case TextureKind::Sidewalk: {
+      std::int64_t i = 0, j = 0;
+      const double g = std::max(gridLine(p.s, 0.6, 0.01, p.footprint, i), gridLine(p.t, 0.6, 0.01, p.footprint, j));
+      const double slab = m.albedo * (0.9 + 0.2 * hashUnit(i, j, m.seed)) *
+                          (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed + 1, 2.0, 7, p.footprint));
+      a = lerp(slab, 0.25, g);
+      break;
+    }
+    case TextureKind::PosterWall: a = posterWall(m, p); break;
+    case TextureKind::Facade: a = facade(m, p); break;
+    case TextureKind::Road: a = road(m, p); break;
+    case TextureKind::CarBody: a = carBody(m, p); break;
+    case TextureKind::CarCabin: a = carCabin(m, p); break;
+    case TextureKind::BusBody: a = busBody(m, p); break;
+    case TextureKind::Person: a = person(m, p); break;
+    case TextureKind::Ceiling: {
+      std::int64_t i = 0, j = 0;
+      const double g = std::max(gridLine(p.s, 0.6, 0.015, p.footprint, i), gridLine(p.t, 0.6, 0.015, p.footprint, j));
+      double panel = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 4.0, 5, p.footprint));
+      // Every fourth panel along s and every other across holds a light fitting.
+      if (((i % 4) + 4) % 4 == 1 && ((j % 2) + 2) % 2 == 0) {
+        const double lamp = rectCoverage(p, i * 0.6 + 0.05, i * 0.6 + 0.55, j * 0.6 + 0.05, j * 0.6 + 0.55);
+        panel = lerp(panel, 1.0, lamp);
+      }
+      a = lerp(panel, 0.35, g);
+      break;
+    }
+    case TextureKind::CorridorWall: a = corridorWall(m, p); break;
+    case TextureKind::Wood:
+      a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s * 0.25, p.t * 8.0, m.seed, 2.0, 6, p.footprint * 8.0));
+      break;
+    case TextureKind::Foliage:
+      a = m.albedo * (1.0 + 0.6 * std::tanh(2.5 * fractalNoise(p.s, p.t, m.seed, 2.0, 6, p.footprint)));
+      break;
+  }
+  return static_cast<float>(clamp01(a));
+}
+
+}  // namespace pslam::synth
