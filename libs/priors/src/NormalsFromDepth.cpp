@@ -150,13 +150,14 @@ NormalMap DepthNormalEstimator::compute(const cv::Mat& depthMetres, const Pinhol
   cv::Mat valid(rows, cols, CV_64F, 0.0);
   for (int v = 0; v < rows; ++v) {
     const float* d = depthMetres.ptr<float>(v);
+    double *X0 = X.ptr<double>(v), *Y0 = Y.ptr<double>(v), *Z0 = Z.ptr<double>(v), *ok = valid.ptr<double>(v);
     for (int u = 0; u < cols; ++u) {
       const double z = d[u];
       if (!std::isfinite(z) || z < P.minDepth || z > P.maxDepth || z <= 0) continue;
-      X.at<double>(v, u) = (u - K.cx) / K.fx * z;
-      Y.at<double>(v, u) = (v - K.cy) / K.fy * z;
-      Z.at<double>(v, u) = z;
-      valid.at<double>(v, u) = 1.0;
+      X0[u] = (u - K.cx) / K.fx * z;
+      Y0[u] = (v - K.cy) / K.fy * z;
+      Z0[u] = z;
+      ok[u] = 1.0;
     }
   }
   // Depth discontinuities: a jump between 4-neighbours (or a valid/invalid border) is an edge; the
@@ -194,21 +195,24 @@ NormalMap DepthNormalEstimator::compute(const cv::Mat& depthMetres, const Pinhol
   out.planeLabels = cv::Mat(rows, cols, CV_32SC1, cv::Scalar(-1));
   const double minWindowCount = P.minWindowValidShare * win.area();
   for (int v = 0; v < rows; ++v) {
+    const double *pn = N.ptr<double>(v), *px = SX.ptr<double>(v), *py = SY.ptr<double>(v), *pz = SZ.ptr<double>(v);
+    const double *pxx = SXX.ptr<double>(v), *pxy = SXY.ptr<double>(v), *pxz = SXZ.ptr<double>(v);
+    const double *pyy = SYY.ptr<double>(v), *pyz = SYZ.ptr<double>(v), *pzz = SZZ.ptr<double>(v);
+    const double *ok = valid.ptr<double>(v), *X0 = X.ptr<double>(v), *Y0 = Y.ptr<double>(v), *Z0 = Z.ptr<double>(v);
+    const float* edge = edgeDistance.ptr<float>(v);
+    auto* outN = out.normals.ptr<cv::Vec3f>(v);
     for (int u = 0; u < cols; ++u) {
-      if (valid.at<double>(v, u) == 0.0 || N.at<double>(v, u) < minWindowCount) continue;
-      if (edgeDistance.at<float>(v, u) <= P.windowRadius) continue;  // window would straddle a jump
+      if (ok[u] == 0.0 || pn[u] < minWindowCount) continue;
+      if (edge[u] <= P.windowRadius) continue;  // window would straddle a depth jump
       Moments m;
-      m.n = N.at<double>(v, u);
-      m.s << SX.at<double>(v, u), SY.at<double>(v, u), SZ.at<double>(v, u);
-      m.ss << SXX.at<double>(v, u), SXY.at<double>(v, u), SXZ.at<double>(v, u),  //
-          SXY.at<double>(v, u), SYY.at<double>(v, u), SYZ.at<double>(v, u),      //
-          SXZ.at<double>(v, u), SYZ.at<double>(v, u), SZZ.at<double>(v, u);
+      m.n = pn[u];
+      m.s << px[u], py[u], pz[u];
+      m.ss << pxx[u], pxy[u], pxz[u], pxy[u], pyy[u], pyz[u], pxz[u], pyz[u], pzz[u];
       const PlaneFit f = fitPlane(m);
-      if (f.curvature > P.maxCurvature) continue;  // window crosses an edge or clutter
+      if (f.curvature > P.maxCurvature) continue;  // window crosses a fold or clutter
       Eigen::Vector3d n = f.normal;
-      const Eigen::Vector3d p(X.at<double>(v, u), Y.at<double>(v, u), Z.at<double>(v, u));
-      if (n.dot(p) > 0) n = -n;
-      out.normals.at<cv::Vec3f>(v, u) = cv::Vec3f(float(n.x()), float(n.y()), float(n.z()));
+      if (n.x() * X0[u] + n.y() * Y0[u] + n.z() * Z0[u] > 0) n = -n;
+      outN[u] = cv::Vec3f(float(n.x()), float(n.y()), float(n.z()));
     }
   }
 
@@ -286,34 +290,37 @@ NormalMap DepthNormalEstimator::compute(const cv::Mat& depthMetres, const Pinhol
     if (x < 0 || y < 0 || x >= gw || y >= gh) return -1;
     return cellRegion[static_cast<std::size_t>(y * gw + x)];
   };
+  std::vector<cv::Vec3f> planeNormals;
+  for (const auto& pl : planes) planeNormals.emplace_back(float(pl.normal.x()), float(pl.normal.y()), float(pl.normal.z()));
   for (int v = 0; v < rows; ++v) {
     const int gy = std::min(v / cs, gh - 1);
+    const double *ok = valid.ptr<double>(v), *X0 = X.ptr<double>(v), *Y0 = Y.ptr<double>(v), *Z0 = Z.ptr<double>(v);
+    auto* outN = out.normals.ptr<cv::Vec3f>(v);
+    uchar* mask = out.planarMask.ptr<uchar>(v);
+    int* label = out.planeLabels.ptr<int>(v);
     for (int u = 0; u < cols; ++u) {
-      if (valid.at<double>(v, u) == 0.0) continue;
+      if (ok[u] == 0.0) continue;
       const int gx = std::min(u / cs, gw - 1);
-      const Eigen::Vector3d p(X.at<double>(v, u), Y.at<double>(v, u), Z.at<double>(v, u));
+      const Eigen::Vector3d p(X0[u], Y0[u], Z0[u]);
+      const cv::Vec3f own = outN[u];
       int bestPlane = -1;
       double bestDist = P.inlierSigmas * sigmaAt(p.z());
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int r = regionOfCell(gx + dx, gy + dy);
-          if (r < 0) continue;
+          if (r < 0 || r == bestPlane) continue;
           const PlaneFit& pl = planes[static_cast<std::size_t>(r)];
           const double dist = std::abs(pl.normal.dot(p) + pl.d);
           if (dist > bestDist) continue;
           // The pixel's own normal, where it has one, must agree with the plane.
-          const cv::Vec3f own = out.normals.at<cv::Vec3f>(v, u);
-          const cv::Vec3f pn(float(pl.normal.x()), float(pl.normal.y()), float(pl.normal.z()));
-          if (own != cv::Vec3f(0, 0, 0) && own.dot(pn) < cosMerge) continue;
+          if (own != cv::Vec3f(0, 0, 0) && own.dot(planeNormals[static_cast<std::size_t>(r)]) < cosMerge) continue;
           bestDist = dist;
           bestPlane = r;
         }
       if (bestPlane < 0) continue;
-      const PlaneFit& pl = planes[static_cast<std::size_t>(bestPlane)];
-      out.planarMask.at<uchar>(v, u) = 255;
-      out.planeLabels.at<int>(v, u) = bestPlane;
-      if (P.usePlaneNormals)
-        out.normals.at<cv::Vec3f>(v, u) = cv::Vec3f(float(pl.normal.x()), float(pl.normal.y()), float(pl.normal.z()));
+      mask[u] = 255;
+      label[u] = bestPlane;
+      if (P.usePlaneNormals) outN[u] = planeNormals[static_cast<std::size_t>(bestPlane)];
     }
   }
   out.planeCount = static_cast<int>(planes.size());
