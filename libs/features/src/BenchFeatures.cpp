@@ -104,10 +104,13 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
       }
       if (options_.directPoints > 0) {
         const auto start = std::chrono::steady_clock::now();
+        const double cpu = processCpuMs();
         const size_t n = direct.select(img).size();
+        const double cpuMs = processCpuMs() - cpu;
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
         if (r > 0) {
           result.timings.add("direct_points", ms);
+          result.timings.add("direct_points_cpu", cpuMs);
           nDirect += n;
         }
       }
@@ -139,7 +142,7 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   out << line;
   for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "total", "pyramid_cpu",
                             "fast+quadtree_cpu", "orientation_cpu", "descriptors_cpu", "total_cpu", "opencv_orb",
-                            "opencv_orb_cpu", "direct_points"}) {
+                            "opencv_orb_cpu", "direct_points", "direct_points_cpu"}) {
     const auto it = result.timings.samples().find(stage);
     if (it == result.timings.samples().end()) continue;
     std::snprintf(line, sizeof line, "%-18s %10.2f %10.2f %10.2f\n", stage, percentile(it->second, 50),
