@@ -319,3 +319,17 @@ TEST(OrbExtractor, SingleFastPassAgreesWithOrbSlamPerCellFast) {
   EXPECT_NEAR(static_cast<double>(ka.size()), static_cast<double>(kb.size()), 0.02 * kb.size());
   EXPECT_GE(common, 0.9 * kb.size());
 }
+
+TEST(OrbExtractor, OrientationEqualsOpenCvIntensityCentroid) {
+  // Independent implementation: cv::ORB computes the same intensity-centroid angle for its own keypoints
+  // (single level, integer FAST positions); ours must agree on every one of them.
+  const cv::Mat img = texturedImage(400, 300, 9);
+  auto orb = cv::ORB::create(500, 1.2f, 1, 31, 0, 2, cv::ORB::HARRIS_SCORE, 31, 20);
+  std::vector<cv::KeyPoint> cvKps;
+  orb->detect(img, cvKps);
+  ASSERT_GT(cvKps.size(), 100u);
+  OrbExtractor ex;
+  for (const auto& kp : cvKps) {
+    EXPECT_NEAR(angleDiffDeg(ex.intensityCentroidAngle(img, kp.pt), kp.angle), 0.f, 1e-3f) << kp.pt;
+  }
+}
