@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -17,10 +19,27 @@ namespace pslam::datasets::testing {
 
 namespace fs = std::filesystem;
 
+/// Folders made by freshDir(), removed when the test program exits.
+struct TempDirs {
+  std::vector<fs::path> dirs;
+  ~TempDirs() {
+    for (const auto& d : dirs) {
+      std::error_code ec;
+      fs::remove_all(d, ec);
+    }
+  }
+};
+inline TempDirs& tempDirs() {
+  static TempDirs t;
+  return t;
+}
+
 inline fs::path freshDir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("pslam_test_datasets_" + name);
+  // The process id keeps concurrent runs of the tests (several build folders) apart.
+  fs::path d = fs::temp_directory_path() / ("pslam_test_datasets_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
+  tempDirs().dirs.push_back(d);
   return d;
 }
 

@@ -3,11 +3,16 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <unistd.h>
 #include <fstream>
 
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Dataset2RawlogApp.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam/datasets/Readers.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
@@ -18,7 +23,7 @@ namespace {
 const fs::path kData = PRIORSLAM_SHARED_DATA_DIR;
 
 fs::path freshOut(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("pslam_test_d2r_data_" + name);
+  fs::path d = fs::temp_directory_path() / ("pslam_test_d2r_data_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   return d;
 }
@@ -109,4 +114,70 @@ TEST(Dataset2RawlogData, TumFr3CabinetEvery20th) {
     EXPECT_LT(gt[i].orientation.angularDistance(source[i].orientation), 1e-7);
   }
   fs::remove_all(opt.outDir);
+}
+
+TEST(Dataset2RawlogData, EurocGroundTruthOfV102IsMovedToTheCamera) {
+  // The real EuRoC V1_02 body ground truth (ASL csv) with three synthetic images at three of its stamps.
+  const fs::path gtCsv = kData / "trajectories_gt_only_evo_testdata" / "V102_groundtruth.csv";
+  if (!fs::is_regular_file(gtCsv)) GTEST_SKIP() << "shared data not found: " << gtCsv;
+  const fs::path root = freshOut("euroc") / "V1_02_medium";
+  const fs::path cam = root / "mav0" / "cam0";
+  fs::create_directories(cam / "data");
+  fs::create_directories(root / "mav0" / "state_groundtruth_estimate0");
+  fs::copy_file(gtCsv, root / "mav0" / "state_groundtruth_estimate0" / "data.csv");
+  // cam0 of the Vicon-room sequences (sensor.yaml of V1_02_medium).
+  std::ofstream(cam / "sensor.yaml") << "%YAML:1.0\nsensor_type: camera\nT_BS:\n  cols: 4\n  rows: 4\n"
+                                        "  data: [0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975,\n"
+                                        "         0.999557249008, 0.0149672133247, 0.025715529948, -0.064676986768,\n"
+                                        "        -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,\n"
+                                        "         0.0, 0.0, 0.0, 1.0]\nrate_hz: 20\nresolution: [752, 480]\n"
+                                        "camera_model: pinhole\nintrinsics: [458.654, 457.296, 367.215, 248.375]\n"
+                                        "distortion_model: radial-tangential\n"
+                                        "distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]\n";
+  // Pick GT lines 100, 5000, 16000 as camera stamps and keep their body poses for the check.
+  std::ifstream in(gtCsv);
+  std::string line;
+  std::vector<std::string> lines;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#') lines.push_back(line);
+  ASSERT_GT(lines.size(), 16000u);
+  std::string csv = "#timestamp [ns],filename\n";
+  std::vector<Eigen::Isometry3d> body;
+  for (std::size_t k : {100u, 5000u, 16000u}) {
+    std::stringstream ss(lines[k]);
+    std::string field;
+    std::vector<std::string> f;
+    while (std::getline(ss, field, ',')) f.push_back(field);
+    cv::imwrite((cam / "data" / (f[0] + ".png")).string(), cv::Mat(480, 752, CV_8UC1, cv::Scalar(static_cast<int>(k % 255))));
+    csv += f[0] + "," + f[0] + ".png\n";
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(std::stod(f[1]), std::stod(f[2]), std::stod(f[3]));
+    T.linear() = Eigen::Quaterniond(std::stod(f[4]), std::stod(f[5]), std::stod(f[6]), std::stod(f[7])).normalized().toRotationMatrix();
+    body.push_back(T);
+  }
+  std::ofstream(cam / "data.csv") << csv;
+
+  Dataset2RawlogOptions opt;
+  opt.input = root;
+  opt.outDir = root.parent_path() / "out";
+  opt.progress = false;
+  const auto summary = Dataset2RawlogApp(opt).run();
+  EXPECT_EQ(summary.format, "euroc");
+  EXPECT_EQ(summary.frames, 3u);
+  ASSERT_EQ(summary.groundTruthPoses, 3u);
+  EXPECT_EQ(summary.rawlogPath.filename(), "V1_02_medium.rawlog");
+  Eigen::Matrix4d tbs;
+  tbs << 0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
+      0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949, 0, 0, 0, 1;
+  const Eigen::Isometry3d T_BS(tbs);
+  const Trajectory gt = readTumTrajectory(summary.groundTruthPath);
+  const ReadBack r = readBack(summary.rawlogPath);
+  ASSERT_EQ(gt.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(gt[i].timestamp, r.stamps[i]);
+    const Eigen::Isometry3d expected = body[i] * T_BS;  // T_world_cam = T_world_body * T_BS
+    EXPECT_LT((gt[i].position - expected.translation()).norm(), 1e-6) << i;
+    EXPECT_LT(gt[i].orientation.angularDistance(Eigen::Quaterniond(expected.linear())), 1e-6) << i;
+  }
+  fs::remove_all(root.parent_path());
 }
