@@ -1,0 +1,157 @@
+// Normals from a network through OpenCV DNN, with a tiny Darknet model the test writes itself: one 1x1
+// convolution whose weights are known, so the expected normals are known exactly.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
+#include <mrpt/config/CConfigFile.h>
+
+#include "pslam/core/Error.h"
+#include "pslam/datasets/Rawlog.h"
+#include "pslam/priors/NormalSource.h"
+#include "pslam/priors/NormalsFromNetwork.h"
+
+namespace fs = std::filesystem;
+using namespace pslam::priors;
+
+namespace {
+
+struct TempDir {
+  fs::path path;
+  TempDir() : path(fs::temp_directory_path() / ("pslam_normal_net_" + std::to_string(::getpid()))) {
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+};
+
+/// Darknet model: input 3xHxW, one 1x1 convolution with `filters` outputs, linear activation.
+/// weights[f][c] and bias[f]; blob channel c is the input after OpenCV's blobFromImage.
+void writeDarknet(const fs::path& cfg, const fs::path& weightsFile, int size, const std::vector<std::vector<float>>& W,
+                  const std::vector<float>& bias) {
+  std::ofstream c(cfg);
+  c << "[net]\nwidth=" << size << "\nheight=" << size << "\nchannels=3\n\n"
+    << "[convolutional]\nfilters=" << W.size() << "\nsize=1\nstride=1\npad=0\nactivation=linear\n";
+  std::ofstream w(weightsFile, std::ios::binary);
+  const int32_t major = 0, minor = 2, revision = 0;
+  const uint64_t seen = 0;
+  w.write(reinterpret_cast<const char*>(&major), 4);
+  w.write(reinterpret_cast<const char*>(&minor), 4);
+  w.write(reinterpret_cast<const char*>(&revision), 4);
+  w.write(reinterpret_cast<const char*>(&seen), 8);
+  w.write(reinterpret_cast<const char*>(bias.data()), static_cast<std::streamsize>(bias.size() * 4));
+  for (const auto& row : W) w.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size() * 4));
+}
+
+/// An image whose pixels encode known normals, BGR channel k = round((n_k + 1) / 2 * 255) as in the contract.
+cv::Mat normalImage(int size, cv::Mat& truth) {
+  cv::Mat img(size, size, CV_8UC3);
+  truth = cv::Mat(size, size, CV_32FC3);
+  for (int v = 0; v < size; ++v)
+    for (int u = 0; u < size; ++u) {
+      // normals facing the camera (negative z), varied over the image
+      const double a = (u - size / 2.0) / size, b = (v - size / 2.0) / size;
+      const cv::Vec3d n = cv::normalize(cv::Vec3d(a, b, -1.0));
+      img.at<cv::Vec3b>(v, u) = pslam::datasets::encodeNormal(n);
+      cv::Vec3d q;
+      pslam::datasets::decodeNormal(img.at<cv::Vec3b>(v, u), q);  // the exactly representable normal
+      truth.at<cv::Vec3f>(v, u) = cv::Vec3f(q);
+    }
+  return img;
+}
+
+double maxErrorDeg(const cv::Mat& a, const cv::Mat& b) {
+  double m = 0;
+  for (int v = 0; v < a.rows; ++v)
+    for (int u = 0; u < a.cols; ++u) m = std::max(m, normalAngleDeg(a.at<cv::Vec3f>(v, u), b.at<cv::Vec3f>(v, u)));
+  return m;
+}
+
+}  // namespace
+
+TEST(NormalsFromNetwork, DarknetIdentityDecoderReproducesEncodedNormals) {
+  TempDir dir;
+  // out_k = 2 * pixel_k / 255 - 1 with blob scale 1/255 and no channel swap: the network decodes the image.
+  writeDarknet(dir.path / "n.cfg", dir.path / "n.weights", 32, {{2, 0, 0}, {0, 2, 0}, {0, 0, 2}}, {-1, -1, -1});
+  NetworkNormalParams p;
+  p.model = (dir.path / "n.weights").string();
+  p.config = (dir.path / "n.cfg").string();
+  p.inputWidth = p.inputHeight = 32;
+  p.swapRB = false;
+  p.orientTowardsCamera = false;
+  NetworkNormalEstimator net(p);
+  cv::Mat truth;
+  const cv::Mat img = normalImage(32, truth);
+  const NormalMap nm = net.compute(img);
+  ASSERT_EQ(nm.normals.size(), img.size());
+  EXPECT_LT(maxErrorDeg(nm.normals, truth), 0.05);  // float32 acos resolution near 0 is ~0.02 deg
+  EXPECT_EQ(cv::countNonZero(nm.planarMask), 32 * 32);  // no planar channel: everything counts
+}
+
+TEST(NormalsFromNetwork, AxisMappingSwapAndPlanarChannelFromIni) {
+  TempDir dir;
+  // A "y-up, z-towards-viewer" network on RGB input: out0 = n_x, out1 = -n_y, out2 = -n_z; out3 = planar prob.
+  // With swapRB the blob is (R, G, B) = (n_z, n_y, n_x) encoded, so the weights pick channels accordingly.
+  writeDarknet(dir.path / "n.cfg", dir.path / "n.weights", 16,
+               {{0, 0, 2}, {0, -2, 0}, {-2, 0, 0}, {0, 0, 0}}, {-1, 1, 1, 0.8f});
+  {
+    std::ofstream ini(dir.path / "net.ini");
+    ini << "[NormalsFromNetwork]\nmodel = n.weights\nconfig = n.cfg\ninputWidth = 16\ninputHeight = 16\n"
+        << "scale = 0.00392156862745098\nswapRB = true\naxisMapping = x,-y,-z\nplanarChannel = 3\n"
+        << "planarThreshold = 0.5\n";
+  }
+  auto source = makeNormalSource("network", dir.path / "net.ini");  // relative model paths: ini folder
+  pslam::datasets::Frame f;
+  cv::Mat truth;
+  f.image = normalImage(16, truth);
+  f.camera.ncols = f.camera.nrows = 16;
+  f.camera.fx(20);
+  f.camera.fy(20);
+  f.camera.cx(7.5);
+  f.camera.cy(7.5);
+  const NormalMap nm = source->compute(f);
+  EXPECT_LT(maxErrorDeg(nm.normals, truth), 0.05);  // float32 acos resolution near 0 is ~0.02 deg
+  EXPECT_EQ(cv::countNonZero(nm.planarMask), 16 * 16);  // probability 0.8 >= 0.5
+
+  // orientTowardsCamera flips normals that face away: the same network with the encoded normals negated.
+  cv::Mat flipped = f.image.clone();
+  for (auto it = flipped.begin<cv::Vec3b>(); it != flipped.end<cv::Vec3b>(); ++it)
+    for (int k = 0; k < 3; ++k) (*it)[k] = static_cast<uchar>(255 - (*it)[k]);
+  f.image = flipped;
+  EXPECT_LT(maxErrorDeg(source->compute(f).normals, truth), 0.5);
+}
+
+TEST(NormalsFromNetwork, BadConfigurationsNameTheProblem) {
+  TempDir dir;
+  NetworkNormalParams p;
+  p.model = (dir.path / "missing.onnx").string();
+  try {
+    NetworkNormalEstimator net(p);
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.onnx"), std::string::npos);
+  }
+  p.axisMapping = "x,y";
+  EXPECT_THROW(p.check(), pslam::Error);
+  p.axisMapping = "x,x,z";
+  EXPECT_THROW(p.check(), pslam::Error);
+  p.axisMapping = "x,-y,w";
+  EXPECT_THROW(p.check(), pslam::Error);
+  p.axisMapping = "x,y,z";
+  p.planarChannel = 1;  // collides with a normal component
+  EXPECT_THROW(p.check(), pslam::Error);
+  {
+    std::ofstream ini(dir.path / "empty.ini");
+    ini << "[Other]\nx = 1\n";
+  }
+  EXPECT_THROW(makeNormalSource("network", dir.path / "empty.ini"), pslam::Error);
+  EXPECT_THROW(makeNormalSource("network", ""), pslam::Error);
+  // A model that is not a network at all.
+  { std::ofstream(dir.path / "junk.weights") << "not a network"; }
+  { std::ofstream(dir.path / "junk.cfg") << "garbage"; }
+  p.model = (dir.path / "junk.weights").string();
+  p.config = (dir.path / "junk.cfg").string();
+  EXPECT_THROW(NetworkNormalEstimator{p}, pslam::Error);
+}
