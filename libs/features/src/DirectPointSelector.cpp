@@ -124,8 +124,9 @@ std::vector<DirectPoint> DirectPointSelector::selectWithBlockSize(const cv::Mat&
   return out;
 }
 
-std::vector<DirectPoint> DirectPointSelector::select(const cv::Mat& image) const {
+std::vector<DirectPoint> DirectPointSelector::select(const cv::Mat& image, int targetPoints) const {
   require(!image.empty(), "DirectPointSelector::select", "empty image");
+  require(targetPoints > 0, "DirectPointSelector::select", "targetPoints must be > 0");
   require(image.depth() == CV_8U && (image.channels() == 1 || image.channels() == 3), "DirectPointSelector::select",
           "image must be CV_8UC1 or CV_8UC3 (got type " + std::to_string(image.type()) + ")");
   cv::Mat grey = image;
@@ -138,12 +139,12 @@ std::vector<DirectPoint> DirectPointSelector::select(const cv::Mat& image) const
   // then keep the block size whose count comes closest (W is an integer, so the target is met only roughly).
   int W = std::max(2, params_.initialBlockSize);
   std::vector<DirectPoint> points = selectWithBlockSize(grad, integral, W);
-  auto offBy = [&](size_t n) { return std::abs(static_cast<double>(n) - params_.targetPoints); };
+  auto offBy = [&](size_t n) { return std::abs(static_cast<double>(n) - targetPoints); };
   std::vector<int> tried{W};
   int bestW = W;
   std::vector<DirectPoint> best = points;
   for (int it = 0; it < params_.adaptIterations && !points.empty(); ++it) {
-    const double ratio = points.size() / static_cast<double>(params_.targetPoints);
+    const double ratio = points.size() / static_cast<double>(targetPoints);
     if (ratio > 0.85 && ratio < 1.15) break;
     int next = std::max(2, static_cast<int>(std::lround(W * std::sqrt(ratio))));
     if (next == W) next = ratio > 1 ? W + 1 : std::max(2, W - 1);
@@ -170,6 +171,25 @@ std::vector<DirectPoint> DirectPointSelector::select(const cv::Mat& image) const
   points.swap(best);
   lastBlockSize_ = W;
   return points;
+}
+
+}  // namespace pslam::features
+
+namespace pslam::features {
+
+std::vector<std::vector<DirectPoint>> DirectPointSelector::selectPyramid(const std::vector<cv::Mat>& levels) const {
+  std::vector<std::vector<DirectPoint>> out(levels.size());
+  double totalArea = 0;
+  for (const cv::Mat& l : levels) {
+    require(!l.empty(), "DirectPointSelector::selectPyramid", "empty pyramid level");
+    totalArea += l.total();
+  }
+  for (size_t i = 0; i < levels.size(); ++i) {
+    const int target =
+        std::max(1, static_cast<int>(std::lround(params_.targetPoints * levels[i].total() / totalArea)));
+    out[i] = select(levels[i], target);
+  }
+  return out;
 }
 
 }  // namespace pslam::features

@@ -10,6 +10,7 @@
 #include "SyntheticImages.h"
 #include "pslam/core/Error.h"
 #include "pslam/features/DirectPointSelector.h"
+#include "pslam/features/OrbExtractor.h"
 
 using namespace pslam::features;
 using pslam::features::test::texturedImage;
@@ -112,4 +113,34 @@ TEST(DirectPoints, DeterministicAndRejectsBadInput) {
   EXPECT_EQ(q.targetPoints, 5000);
   cfg.write("Direct", "border", 0);
   EXPECT_THROW(q.loadFromConfigFile(cfg, "Direct"), pslam::Error);
+}
+
+TEST(DirectPoints, PyramidLevelsGetAreaProportionalShares) {
+  const cv::Mat img = texturedImage(640, 480, 16);
+  OrbParams op;
+  op.nLevels = 4;
+  op.scaleFactor = 1.5;
+  OrbExtractor ex(op);
+  std::vector<cv::KeyPoint> k;
+  cv::Mat d;
+  ex.extract(img, k, d);
+  DirectSelectorParams p;
+  p.targetPoints = 3000;
+  DirectPointSelector sel(p);
+  const auto perLevel = sel.selectPyramid(ex.pyramid());
+  ASSERT_EQ(perLevel.size(), 4u);
+  double area = 0;
+  for (const auto& l : ex.pyramid()) area += l.total();
+  for (size_t l = 0; l < perLevel.size(); ++l) {
+    const cv::Mat& level = ex.pyramid()[l];
+    const double share = p.targetPoints * level.total() / area;
+    // Integer block sizes: counts land within a factor 1.5 of the share (see CountApproachesTarget...).
+    EXPECT_NEAR(double(perLevel[l].size()), share, 0.5 * share) << "level " << l;
+    for (const auto& pt : perLevel[l]) {
+      EXPECT_TRUE(pt.pixel.x >= p.border && pt.pixel.y >= p.border && pt.pixel.x < level.cols - p.border &&
+                  pt.pixel.y < level.rows - p.border)
+          << "level " << l << " " << pt.pixel;
+    }
+  }
+  EXPECT_THROW(sel.selectPyramid({cv::Mat()}), pslam::Error);
 }

@@ -38,7 +38,12 @@ class DirectPointSelector {
   explicit DirectPointSelector(const DirectSelectorParams& params = {});
   /// Selects points in a grey CV_8UC1 image (colour is converted). Deterministic. Throws pslam::Error on empty
   /// or non-8-bit input. Points are ordered by block (row-major over the 4W blocks).
-  std::vector<DirectPoint> select(const cv::Mat& image) const;
+  std::vector<DirectPoint> select(const cv::Mat& image) const { return select(image, params_.targetPoints); }
+  /// Same with an explicit target count.
+  std::vector<DirectPoint> select(const cv::Mat& image, int targetPoints) const;
+  /// Algorithm 3 over a pyramid (e.g. OrbExtractor::pyramid()): level l gets a share of targetPoints proportional
+  /// to its area (sum over levels = targetPoints, at least 1 per level); points are in level-l pixels.
+  std::vector<std::vector<DirectPoint>> selectPyramid(const std::vector<cv::Mat>& levels) const;
   /// One pass of Algorithm 3 with a fixed block size W (exposed for tests).
   std::vector<DirectPoint> selectWithBlockSize(const cv::Mat& gradient, const cv::Mat& gradientIntegral,
                                                int blockSize) const;
