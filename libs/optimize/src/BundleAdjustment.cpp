@@ -1,6 +1,7 @@
 #include "pslam/optimize/BundleAdjustment.h"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -10,7 +11,7 @@
 #include <ceres/solver.h>
 
 #include "pslam/core/Error.h"
-#include "pslam/optimize/InverseDepthReprojectionError.h"
+#include "pslam/optimize/AnalyticJacobians.h"
 
 namespace pslam::optimize {
 
@@ -120,7 +121,7 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
     const BAPoint& p = problem.points.at(o.point);
     if (o.keyframe == p.anchor) continue;  // constant residual (see InverseDepthReprojectionError.h)
     ceresProblem.AddResidualBlock(
-        InverseDepthReprojectionError::create(p.bearing, o.pixel, o.invSigma2, problem.keyframes.at(o.keyframe).camera),
+        new InverseDepthReprojectionCost(p.bearing, o.pixel, o.invSigma2, problem.keyframes.at(o.keyframe).camera),
         robust ? &huber : nullptr, state.poses.at(p.anchor), state.poses.at(o.keyframe), state.rhos.at(o.point));
     ++residualBlocks;
   }
@@ -167,6 +168,12 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
   result.initialCost = first.initial_cost;
   result.finalCost = first.final_cost;
   result.iterations = static_cast<int>(first.iterations.size());
+  auto addTimes = [&](const ceres::Solver::Summary& summary) {
+    result.jacobianSeconds += std::max(0.0, summary.jacobian_evaluation_time_in_seconds) +
+                              std::max(0.0, summary.residual_evaluation_time_in_seconds);
+    result.linearSolverSeconds += std::max(0.0, summary.linear_solver_time_in_seconds);
+  };
+  addTimes(first);
 
   auto isOutlier = [&](std::size_t i) {
     const ObservationCheck c = evaluate(problem, state, problem.observations[i]);
@@ -179,6 +186,7 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
     if (blocks > 0) {
       result.finalCost = second.final_cost;
       result.iterations += static_cast<int>(second.iterations.size());
+      addTimes(second);
     }
   }
   for (std::size_t i = 0; i < problem.observations.size(); ++i)

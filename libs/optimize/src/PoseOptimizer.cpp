@@ -7,7 +7,7 @@
 #include <ceres/solver.h>
 
 #include "pslam/core/Error.h"
-#include "pslam/optimize/ReprojectionError.h"
+#include "pslam/optimize/AnalyticJacobians.h"
 
 namespace pslam::optimize {
 
@@ -67,7 +67,7 @@ PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial
     for (std::size_t i = 0; i < observations.size(); ++i) {
       if (result.outlier[i]) continue;
       const PoseObservation& o = observations[i];
-      problem.AddResidualBlock(PoseOnlyReprojectionError::create(o.p_world, o.pixel, o.invSigma2, camera), loss,
+      problem.AddResidualBlock(new PoseOnlyReprojectionCost(o.p_world, o.pixel, o.invSigma2, camera), loss,
                                pose.data());
       ++used;
     }

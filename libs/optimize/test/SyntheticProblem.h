@@ -56,6 +56,7 @@ struct SyntheticOptions {
   double inverseDepthNoise = 0.1;   ///< relative
   double scaleFactor = 1.2;
   int levels = 8;
+  int visibilityWindow = 0;  ///< > 0: a point is observed only by this many consecutive keyframes (ORB-like)
   unsigned seed = 1;
 };
 
@@ -80,6 +81,10 @@ inline SyntheticBA makeSyntheticBA(const SyntheticOptions& opt) {
     for (int i = 0; i < opt.keyframes; ++i) {
       const Eigen::Vector3d pc = s.truth.keyframes[i].T_cam_world * pw;
       if (pc.z() > 0.5 && cam.inImage(cam.project(pc))) seenBy.push_back(i);
+    }
+    if (opt.visibilityWindow > 0 && static_cast<int>(seenBy.size()) > opt.visibilityWindow) {
+      const int first = std::uniform_int_distribution<int>(0, int(seenBy.size()) - opt.visibilityWindow)(rng);
+      seenBy = std::vector<int>(seenBy.begin() + first, seenBy.begin() + first + opt.visibilityWindow);
     }
     if (seenBy.size() < 2) continue;
     const int anchor = seenBy[std::uniform_int_distribution<int>(0, int(seenBy.size()) - 1)(rng)];

@@ -9,6 +9,7 @@
 #include <ceres/gradient_checker.h>
 
 #include "SyntheticProblem.h"
+#include "pslam/optimize/AnalyticJacobians.h"
 #include "pslam/optimize/InverseDepthReprojectionError.h"
 #include "pslam/optimize/ReprojectionError.h"
 
@@ -147,4 +148,56 @@ TEST(Residuals, PoseManifoldIsLeftRotationIncrement) {
   EXPECT_EQ(kPoseManifold.TangentSize(), kPoseTangentSize);
   // Round trip through the parameter block.
   EXPECT_NEAR((fromPoseParameters(x.data()).matrix() - T.matrix()).norm(), 0.0, 1e-12);
+}
+
+namespace {
+
+// Residuals and Jacobians (ambient parameters) of two cost functions at the same point.
+void expectSameEvaluation(const ceres::CostFunction& a, const ceres::CostFunction& b,
+                          const std::vector<double*>& parameters) {
+  const auto& sizes = a.parameter_block_sizes();
+  ASSERT_EQ(sizes, b.parameter_block_sizes());
+  std::vector<std::vector<double>> ja(sizes.size()), jb(sizes.size());
+  std::vector<double*> pa, pb;
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    ja[i].assign(2 * sizes[i], 0.0);
+    jb[i].assign(2 * sizes[i], 0.0);
+    pa.push_back(ja[i].data());
+    pb.push_back(jb[i].data());
+  }
+  double ra[2], rb[2];
+  ASSERT_TRUE(a.Evaluate(parameters.data(), ra, pa.data()));
+  ASSERT_TRUE(b.Evaluate(parameters.data(), rb, pb.data()));
+  EXPECT_NEAR(ra[0], rb[0], 1e-10);
+  EXPECT_NEAR(ra[1], rb[1], 1e-10);
+  for (std::size_t i = 0; i < sizes.size(); ++i)
+    for (std::size_t k = 0; k < ja[i].size(); ++k)
+      EXPECT_NEAR(ja[i][k], jb[i][k], 1e-8 * (1.0 + std::abs(ja[i][k]))) << "block " << i << " entry " << k;
+}
+
+}  // namespace
+
+TEST(Residuals, AnalyticJacobiansMatchAutodiffAndNumeric) {
+  std::mt19937 rng(17);
+  const auto cam = testCamera();
+  for (double rho : {0.3, 0.12, 1e-3, 0.0}) {
+    const Eigen::Isometry3d TA = randomPose(rng);
+    const Eigen::Isometry3d TB = perturb(TA, 0.2, 0.5, rng);
+    const Eigen::Vector3d bearing = Eigen::Vector3d(-0.2, 0.1, 1.0).normalized();
+    PoseParameters poseA = toPoseParameters(TA), poseB = toPoseParameters(TB);
+    double rhoParam = rho;
+    const Eigen::Vector2d observed(310.0, 230.0);
+    const double invSigma2 = 1.0 / 1.44;
+    std::unique_ptr<ceres::CostFunction> autodiff(
+        InverseDepthReprojectionError::create(bearing, observed, invSigma2, cam));
+    InverseDepthReprojectionCost analytic(bearing, observed, invSigma2, cam);
+    expectSameEvaluation(*autodiff, analytic, {poseA.data(), poseB.data(), &rhoParam});
+    expectJacobiansMatch(analytic, {&kPoseManifold, &kPoseManifold, nullptr}, {poseA.data(), poseB.data(), &rhoParam});
+
+    const Eigen::Vector3d pw = TA.inverse() * Eigen::Vector3d(0.5, -0.3, 4.0 + rho);
+    std::unique_ptr<ceres::CostFunction> poseAuto(PoseOnlyReprojectionError::create(pw, observed, invSigma2, cam));
+    PoseOnlyReprojectionCost poseAnalytic(pw, observed, invSigma2, cam);
+    expectSameEvaluation(*poseAuto, poseAnalytic, {poseA.data()});
+    expectJacobiansMatch(poseAnalytic, {&kPoseManifold}, {poseA.data()});
+  }
 }

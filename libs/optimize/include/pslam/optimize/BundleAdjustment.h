@@ -50,7 +50,9 @@ struct BAResult {
   double initialRmsPixels = 0.0, finalRmsPixels = 0.0;
   int iterations = 0;       ///< LM iterations over both passes
   int residualBlocks = 0;   ///< in the first pass
-  double solveSeconds = 0.0;
+  double solveSeconds = 0.0;         ///< wall time of the whole call
+  double jacobianSeconds = 0.0;      ///< Ceres: residual + Jacobian evaluation, both passes
+  double linearSolverSeconds = 0.0;  ///< Ceres: Schur complement + sparse Cholesky, both passes
 };
 
 /// Two-pass local BA (ORB-SLAM): firstPassIterations with the Huber loss, then the observations with
