@@ -48,7 +48,19 @@ bool triangulateDLT(const std::vector<Matrix34d>& projections, const std::vector
 
 bool triangulateDLT(const Matrix34d& P1, const Eigen::Vector2d& pixel1, const Matrix34d& P2,
                     const Eigen::Vector2d& pixel2, Eigen::Vector3d& X_world) {
-  return triangulateDLT(std::vector<Matrix34d>{P1, P2}, std::vector<Eigen::Vector2d>{pixel1, pixel2}, X_world);
+  // Same system as the N-view version with fixed sizes (no heap allocation: local mapping calls this
+  // for every candidate match).
+  Eigen::Matrix4d A;
+  A.row(0) = P1.row(1) - pixel1.y() * P1.row(2);
+  A.row(1) = P1.row(0) - pixel1.x() * P1.row(2);
+  A.row(2) = P2.row(1) - pixel2.y() * P2.row(2);
+  A.row(3) = P2.row(0) - pixel2.x() * P2.row(2);
+  if (!A.allFinite()) return false;
+  Eigen::JacobiSVD<Eigen::Matrix4d> svd(A, Eigen::ComputeFullV);
+  const Eigen::Vector4d h = svd.matrixV().col(3);
+  if (!h.allFinite() || std::abs(h(3)) <= 1e-12 * h.norm()) return false;
+  X_world = h.head<3>() / h(3);
+  return X_world.allFinite();
 }
 
 double depthInCamera(const Eigen::Matrix3d& R_cam_world, const Eigen::Vector3d& t_cam_world,

@@ -39,6 +39,9 @@ TEST(Triangulation, NoiselessPointsAreExact) {
     ASSERT_TRUE(triangulateDLT(P[0], px[0], P[1], px[1], X2));
     ASSERT_TRUE(triangulateDLT(P, px, X3));
     EXPECT_LT((X2 - X).norm(), 1e-9 * X.norm());
+    Eigen::Vector3d X2n;  // the fixed-size two-view path equals the N-view path
+    ASSERT_TRUE(triangulateDLT(std::vector<Matrix34d>{P[0], P[1]}, std::vector<Eigen::Vector2d>{px[0], px[1]}, X2n));
+    EXPECT_LT((X2 - X2n).norm(), 1e-9 * X.norm());
     EXPECT_LT((X3 - X).norm(), 1e-9 * X.norm());
     for (const auto& v : views) {
       EXPECT_TRUE(hasPositiveDepth(v.R, v.t, X3));
