@@ -83,4 +83,19 @@ MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BARe
   return s;
 }
 
+MapUpdateSummary localBundleAdjustment(map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params,
+                                       BAResult* resultOut) {
+  const BAProblem problem = makeLocalProblem(map, centre, params);
+  const BAResult result = localBundleAdjustment(problem, params);
+  if (resultOut) *resultOut = result;
+  return applyResult(map, problem, result, true);
+}
+
+MapUpdateSummary globalBundleAdjustment(map::Map& map, const BundleAdjustmentParams& params, BAResult* resultOut) {
+  const BAProblem problem = makeGlobalProblem(map);
+  const BAResult result = globalBundleAdjustment(problem, params);
+  if (resultOut) *resultOut = result;
+  return applyResult(map, problem, result, false);
+}
+
 }  // namespace pslam::optimize

@@ -223,3 +223,30 @@ TEST(LocalBA, ThroughTheMap) {
   EXPECT_EQ(observationsAfter + u.observationsErased, observationsBefore);
   for (const auto& [id, T] : r.poses) EXPECT_EQ(map.keyFrame(id).T_cam_world.matrix(), T.matrix());
 }
+
+TEST(GlobalBA, ThroughTheMapTwoView) {
+  SyntheticOptions opt;
+  opt.keyframes = 2;
+  opt.fixedKeyFrames = 0;
+  opt.points = 200;
+  opt.noisePixels = 0.0;
+  opt.outlierFraction = 0.0;
+  SyntheticBA s = makeSyntheticBA(opt);
+  s.problem.keyframes.at(0).T_cam_world = s.truth.keyframes.at(0).T_cam_world;  // the fixed first keyframe
+  pslam::map::Map map = mapFromSynthetic(s);
+  BAResult report;
+  const MapUpdateSummary u = globalBundleAdjustment(map, {}, &report);
+  EXPECT_EQ(u.posesUpdated, 1);
+  EXPECT_EQ(u.observationsErased, 0);
+  EXPECT_LT(report.finalRmsPixels, 1e-5);
+  ASSERT_NO_THROW(map.checkInvariants());
+  EXPECT_EQ(map.keyFrame(0).T_cam_world.matrix(), s.truth.keyframes.at(0).T_cam_world.matrix());
+  // Noise-free: the relative rotation is exact, and every point reprojects exactly into both views.
+  EXPECT_LT(rotationErrorRad(map.keyFrame(1).T_cam_world, s.truth.keyframes.at(1).T_cam_world), 1e-7);
+  for (const auto& [id, p] : map.mapPoints())
+    for (const auto& [kf, k] : p.observations) {
+      const auto& keyframe = map.keyFrame(kf);
+      const Eigen::Vector2d px = keyframe.camera.project(keyframe.T_cam_world * map.worldPosition(id));
+      EXPECT_LT((px - keyframe.pixel(k)).norm(), 1e-3) << "point " << id << " keyframe " << kf;
+    }
+}

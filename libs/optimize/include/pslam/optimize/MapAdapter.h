@@ -26,4 +26,14 @@ struct MapUpdateSummary {
 MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BAResult& result,
                              bool eraseOutliers = true);
 
+/// Convenience for local mapping: makeLocalProblem + localBundleAdjustment + applyResult.
+/// `resultOut` (optional) receives the optimizer's report (costs, RMS, timings).
+MapUpdateSummary localBundleAdjustment(map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params = {},
+                                       BAResult* resultOut = nullptr);
+
+/// Convenience for the initial map: makeGlobalProblem + globalBundleAdjustment + applyResult. Outlier
+/// observations are reported in `resultOut` but not erased (ORB-SLAM leaves that to the initializer).
+MapUpdateSummary globalBundleAdjustment(map::Map& map, const BundleAdjustmentParams& params = {},
+                                        BAResult* resultOut = nullptr);
+
 }  // namespace pslam::optimize
