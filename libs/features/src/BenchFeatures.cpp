@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <ostream>
@@ -24,6 +25,29 @@ double processCpuMs() {
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 }  // namespace
+
+GridSpread gridSpread(const std::vector<cv::KeyPoint>& keypoints, cv::Size imageSize, int cols, int rows) {
+  require(cols > 0 && rows > 0 && imageSize.width > 0 && imageSize.height > 0, "gridSpread", "empty grid or image");
+  std::vector<int> counts(static_cast<size_t>(cols) * rows, 0);
+  for (const cv::KeyPoint& kp : keypoints) {
+    const int cx = std::clamp(static_cast<int>(kp.pt.x * cols / imageSize.width), 0, cols - 1);
+    const int cy = std::clamp(static_cast<int>(kp.pt.y * rows / imageSize.height), 0, rows - 1);
+    ++counts[static_cast<size_t>(cy) * cols + cx];
+  }
+  GridSpread g;
+  g.minCount = *std::min_element(counts.begin(), counts.end());
+  g.maxCount = *std::max_element(counts.begin(), counts.end());
+  double mean = 0, var = 0;
+  for (int c : counts) {
+    g.emptyCells += c == 0;
+    mean += c;
+  }
+  mean /= counts.size();
+  for (int c : counts) var += (c - mean) * (c - mean);
+  var /= counts.size();
+  g.coefficientOfVariation = mean > 0 ? std::sqrt(var) / mean : 0;
+  return g;
+}
 
 void BenchFeaturesOptions::check() const {
   require(runs >= 1, "bench-features", "--runs must be >= 1");
@@ -64,6 +88,14 @@ nlohmann::json BenchFeaturesResult::toJson(const BenchFeaturesOptions& o) const 
   j["direct_points_target"] = o.directPoints;
   j["mean_direct_points"] = meanDirectPoints;
   j["timings_ms"] = timings.summary();
+  auto spreadJson = [](const std::vector<GridSpread>& v) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& g : v)
+      a.push_back({{"empty_cells", g.emptyCells}, {"min", g.minCount}, {"max", g.maxCount}, {"cv", g.coefficientOfVariation}});
+    return a;
+  };
+  j["spread_16x6"] = spreadJson(spread);
+  j["spread_16x6_opencv"] = spreadJson(spreadOpenCv);
   return j;
 }
 
@@ -96,6 +128,7 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
         cvOrb->detectAndCompute(img, cv::noArray(), cvKps, cvDesc);
         const double cpuCv = processCpuMs() - cpu1;
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        if (r == 0) result.spreadOpenCv.push_back(gridSpread(cvKps, img.size()));
         if (r > 0) {
           result.timings.add("opencv_orb", ms);
           result.timings.add("opencv_orb_cpu", cpuCv);
@@ -114,7 +147,10 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
           nDirect += n;
         }
       }
-      if (r == 0) continue;
+      if (r == 0) {
+        result.spread.push_back(gridSpread(kps, img.size()));
+        continue;
+      }
       result.timings.add("pyramid_cpu", t.pyramidCpuMs);
       result.timings.add("fast+quadtree_cpu", t.detectCpuMs);
       result.timings.add("orientation_cpu", t.orientationCpuMs);
@@ -152,6 +188,27 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   std::snprintf(line, sizeof line, "keypoints: OrbExtractor %.1f, cv::ORB %.1f (mean per image)\n",
                 result.meanKeypoints, result.meanKeypointsOpenCv);
   out << line;
+  auto meanSpread = [](const std::vector<GridSpread>& v, double& empty, double& cv) {
+    empty = cv = 0;
+    for (const auto& g : v) {
+      empty += g.emptyCells;
+      cv += g.coefficientOfVariation;
+    }
+    if (!v.empty()) {
+      empty /= v.size();
+      cv /= v.size();
+    }
+  };
+  double empty, cvar;
+  meanSpread(result.spread, empty, cvar);
+  std::snprintf(line, sizeof line, "spread on a 16x6 grid: OrbExtractor %.1f empty cells, count CV %.2f", empty, cvar);
+  out << line;
+  if (!result.spreadOpenCv.empty()) {
+    meanSpread(result.spreadOpenCv, empty, cvar);
+    std::snprintf(line, sizeof line, "; cv::ORB %.1f empty cells, count CV %.2f", empty, cvar);
+    out << line;
+  }
+  out << " (mean per image)\n";
   if (options_.directPoints > 0) {
     std::snprintf(line, sizeof line, "direct points: %.1f (mean per image, target %d)\n", result.meanDirectPoints,
                   options_.directPoints);

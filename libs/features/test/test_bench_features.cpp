@@ -1,6 +1,7 @@
 // BenchFeaturesApp: prints every stage, writes JSON atomically, names the file on bad input.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -68,4 +69,20 @@ TEST(BenchFeatures, BadInputNamesTheFile) {
   EXPECT_THROW(BenchFeaturesApp(o).run(out), pslam::Error);
   o.runs = 0;
   EXPECT_THROW(BenchFeaturesApp{o}, pslam::Error);
+}
+
+TEST(BenchFeatures, GridSpreadCountsCells) {
+  std::vector<cv::KeyPoint> even, clumped;
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 16; ++x) even.emplace_back(cv::Point2f(x * 10 + 5.f, y * 10 + 5.f), 31);
+  for (int i = 0; i < 96; ++i) clumped.emplace_back(cv::Point2f(1, 1), 31);
+  const auto e = gridSpread(even, cv::Size(160, 60));
+  EXPECT_EQ(e.emptyCells, 0);
+  EXPECT_EQ(e.minCount, 1);
+  EXPECT_EQ(e.maxCount, 1);
+  EXPECT_DOUBLE_EQ(e.coefficientOfVariation, 0.0);
+  const auto c = gridSpread(clumped, cv::Size(160, 60));
+  EXPECT_EQ(c.emptyCells, 95);
+  EXPECT_EQ(c.maxCount, 96);
+  EXPECT_NEAR(c.coefficientOfVariation, std::sqrt(95.0), 1e-9);  // one cell holds everything: std/mean = sqrt(n-1)
 }

@@ -7,11 +7,20 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "pslam/core/StageTimer.h"
 #include "pslam/features/OrbExtractor.h"
 
 namespace pslam::features {
+
+/// How evenly keypoints cover an image: counts on a cols x rows grid.
+struct GridSpread {
+  int emptyCells = 0;
+  int minCount = 0, maxCount = 0;
+  double coefficientOfVariation = 0;  ///< std / mean of the cell counts (0 = perfectly even)
+};
+GridSpread gridSpread(const std::vector<cv::KeyPoint>& keypoints, cv::Size imageSize, int cols = 16, int rows = 6);
 
 struct BenchFeaturesOptions {
   std::filesystem::path input;      ///< an image file or a folder of images (.png/.jpg/.jpeg/.bmp/.pgm/.ppm)
@@ -32,6 +41,7 @@ struct BenchFeaturesResult {
   double meanKeypoints = 0;         ///< OrbExtractor keypoints per image
   double meanKeypointsOpenCv = 0;   ///< cv::ORB keypoints per image
   double meanDirectPoints = 0;      ///< DirectPointSelector points per image (if timed)
+  std::vector<GridSpread> spread, spreadOpenCv;  ///< per image, 16 x 6 grid
   nlohmann::json toJson(const BenchFeaturesOptions& options) const;
 };
 
