@@ -155,7 +155,8 @@ std::string EvalApp::formatTable(const EvalResult& r) const {
   out << statsRow("ATE [m]", r.ate.stats) << "\n";
   if (r.rpe) {
     std::ostringstream d;
-    d << options_.rpeOptions.delta << toString(options_.rpeOptions.unit) << (options_.rpeOptions.allPairs ? ",all" : "");
+    d << options_.rpeOptions.delta << " " << toString(options_.rpeOptions.unit)
+      << (options_.rpeOptions.allPairs ? ", all pairs" : "");
     out << statsRow("RPE t [m]", r.rpe->translation) << "  delta " << d.str() << "\n";
     out << statsRow("RPE r [deg]", r.rpe->rotation) << "\n";
   }
