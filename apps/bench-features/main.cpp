@@ -20,7 +20,14 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--no-opencv", [&o](int64_t) { o.compareOpenCv = false; }, "do not time cv::ORB");
   app.add_option("--json", json, "also write the summary to this JSON file");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {  // --help
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "bench-features: error: " << e.what() << "\n";
+    return 1;
+  }
   try {
     o.input = input;
     o.jsonOutput = json;

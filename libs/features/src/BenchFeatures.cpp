@@ -50,9 +50,9 @@ GridSpread gridSpread(const std::vector<cv::KeyPoint>& keypoints, cv::Size image
 }
 
 void BenchFeaturesOptions::check() const {
-  require(runs >= 1, "bench-features", "--runs must be >= 1");
-  require(maxImages >= 1, "bench-features", "--max-images must be >= 1");
-  require(directPoints >= 0, "bench-features", "--direct must be >= 0");
+  require(runs >= 1, "--runs", "must be >= 1");
+  require(maxImages >= 1, "--max-images", "must be >= 1");
+  require(directPoints >= 0, "--direct", "must be >= 0");
   orb.check();
 }
 
