@@ -270,6 +270,15 @@ UpdateWeights KeypointModel::updateDepth(KeypointState& state, double d, double 
   return br.w;
 }
 
+UpdateWeights KeypointModel::observe(KeypointState& state, double d, double tau2, double alpha,
+                                    const ClassVector& classProbabilities) const {
+  KeypointState next = state;
+  addSemanticObservation(next, classProbabilities, alpha);
+  const UpdateWeights w = updateDepth(next, d, tau2, alpha);
+  state = next;
+  return w;
+}
+
 bool isValidState(const KeypointState& s) {
   bool ok = std::isfinite(s.mu) && std::isfinite(s.sigma2) && s.sigma2 > 0 && std::isfinite(s.aObs) &&
             s.aObs > 0 && std::isfinite(s.bObs) && s.bObs > 0;

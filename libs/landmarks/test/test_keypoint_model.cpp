@@ -222,9 +222,19 @@ TEST(KeypointModel, RejectsBadMeasurementsWithoutChangingTheState) {
   EXPECT_THROW(model.updateDepth(s, 0.5, 1e-4, 1.5), pslam::Error);
   EXPECT_THROW(model.addSemanticObservation(s, {0.5, std::nan(""), 0.1}, 1.0), pslam::Error);
   EXPECT_THROW(model.initialize(0.5, -1), pslam::Error);
+  EXPECT_THROW(model.observe(s, 0.5, -1.0, 0.9, {0.8, 0.1, 0.1}), pslam::Error);  // semantic part not kept
   EXPECT_EQ(s.mu, before.mu);
   EXPECT_EQ(s.aObs, before.aObs);
   EXPECT_EQ(s.semanticUpdates, 0u);
+  // observe() = semantic observation, then depth update.
+  KeypointState x = s, y = s;
+  model.observe(x, 0.52, 1e-4, 0.9, {0.8, 0.1, 0.1});
+  model.addSemanticObservation(y, {0.8, 0.1, 0.1}, 0.9);
+  model.updateDepth(y, 0.52, 1e-4, 0.9);
+  EXPECT_EQ(x.mu, y.mu);
+  EXPECT_EQ(x.aObs, y.aObs);
+  EXPECT_EQ(x.bObs, y.bObs);
+  EXPECT_EQ(x.semanticNll, y.semanticNll);
 }
 
 TEST(KeypointModel, LongRandomSequencesStayFiniteAndPositive) {

@@ -98,6 +98,11 @@ class KeypointModel {
   /// tau2 <= 0 or alpha outside [0, 1]; the state is unchanged then.
   UpdateWeights updateDepth(KeypointState& state, double d, double tau2, double alpha) const;
 
+  /// One observation in a new frame (§3.4.2): the semantic evidence first (it sets the prior of this update),
+  /// then the depth. All-or-nothing: on a pslam::Error the state is unchanged.
+  UpdateWeights observe(KeypointState& state, double d, double tau2, double alpha,
+                        const ClassVector& classProbabilities) const;
+
   /// The moments the update matches (exposed for tests and diagnostics).
   PosteriorMoments posteriorMoments(const KeypointState& state, double d, double tau2, double alpha) const;
 
