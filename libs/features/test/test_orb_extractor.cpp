@@ -333,3 +333,18 @@ TEST(OrbExtractor, OrientationEqualsOpenCvIntensityCentroid) {
     EXPECT_NEAR(angleDiffDeg(ex.intensityCentroidAngle(img, kp.pt), kp.angle), 0.f, 1e-3f) << kp.pt;
   }
 }
+
+TEST(OrbExtractor, LevelBudgetSeries) {
+  // ORB-SLAM: N_l = N_0 / s^l; by area: N_0 / s^(2l); both sum to nFeatures, N_0 from the geometric sum.
+  for (bool byArea : {false, true}) {
+    OrbParams p;
+    p.levelBudgetByArea = byArea;
+    const OrbExtractor ex(p);
+    const auto& n = ex.featuresPerLevel();
+    const double r = byArea ? 1.0 / (1.2 * 1.2) : 1.0 / 1.2;
+    const double n0 = p.nFeatures * (1 - r) / (1 - std::pow(r, p.nLevels));
+    EXPECT_EQ(std::accumulate(n.begin(), n.end(), 0), p.nFeatures);
+    for (int l = 0; l + 1 < p.nLevels; ++l) EXPECT_NEAR(n[l], n0 * std::pow(r, l), 0.5) << "level " << l;
+    EXPECT_NEAR(n.back(), n0 * std::pow(r, p.nLevels - 1), double(p.nLevels)) << "last level takes the rounding rest";
+  }
+}
