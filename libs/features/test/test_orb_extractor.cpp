@@ -348,3 +348,17 @@ TEST(OrbExtractor, LevelBudgetSeries) {
     EXPECT_NEAR(n.back(), n0 * std::pow(r, p.nLevels - 1), double(p.nLevels)) << "last level takes the rounding rest";
   }
 }
+
+TEST(OrbExtractor, RoiInputEqualsItsCopy) {
+  const cv::Mat big = texturedImage(500, 400, 10);
+  const cv::Mat roi = big(cv::Rect(37, 21, 401, 333));  // not continuous in memory
+  ASSERT_FALSE(roi.isContinuous());
+  OrbExtractor ex;
+  std::vector<cv::KeyPoint> a, b;
+  cv::Mat da, db;
+  ex.extract(roi, a, da);
+  ex.extract(roi.clone(), b, db);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].pt, b[i].pt);
+  EXPECT_EQ(cv::norm(da, db, cv::NORM_HAMMING), 0.0);
+}
