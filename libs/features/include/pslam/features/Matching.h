@@ -12,7 +12,8 @@ namespace pslam::features {
 
 /// Hamming distance of two 256-bit (32-byte) ORB descriptors: popcount of their XOR (eq. 2.18).
 int hammingDistance256(const uint8_t* a, const uint8_t* b);
-/// Hamming distance between row `ia` of `a` and row `ib` of `b` (CV_8UC1, 32 columns).
+/// Hamming distance between row `ia` of `a` and row `ib` of `b` (CV_8UC1, 32 columns). Hot path: the caller
+/// guarantees types and row indices (no checks).
 int hammingDistance(const cv::Mat& a, int ia, const cv::Mat& b, int ib);
 
 /// One correspondence: descriptor/keypoint index in the first (query) and the second (train) set.
