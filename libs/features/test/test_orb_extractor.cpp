@@ -295,6 +295,14 @@ TEST(OrbParams, ConfigRoundTripAndChecksNameTheKey) {
   b = p; b.patchSize = 21; expectKey(b, "patchSize");
   b = p; b.edgeThreshold = 10; expectKey(b, "edgeThreshold");
 
+  // The example of doc/features.md.
+  mrpt::config::CConfigFileMemory docCfg(
+      "[ORBextractor]\nnFeatures  = 5000\nscaleFactor = 1.2\nnLevels    = 8\niniThFAST  = 20\nminThFAST  = 7\n");
+  OrbParams fromDoc;
+  fromDoc.loadFromConfigFile(docCfg, "ORBextractor");
+  EXPECT_EQ(fromDoc.nFeatures, 5000);
+  EXPECT_EQ(fromDoc.minThFAST, 7);
+
   mrpt::config::CConfigFileMemory badCfg;
   badCfg.write("ORB", "nLevels", -3);
   EXPECT_THROW(q.loadFromConfigFile(badCfg, "ORB"), pslam::Error);
