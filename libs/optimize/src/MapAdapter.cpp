@@ -33,22 +33,31 @@ void addPointWithObservations(BAProblem& problem, const map::Map& map, const map
 
 }  // namespace
 
-BAProblem makeLocalProblem(const map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params) {
+BAProblem makeLocalProblem(const map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params,
+                           const PointFilter& usePoint) {
   params.check();
   const map::LocalWindow window = map.localWindow(centre, static_cast<std::size_t>(params.maxLocalKeyFrames));
   BAProblem problem;
   const map::KeyFrameId root = map.rootKeyFrame();
   for (map::KeyFrameId id : window.localKeyFrames) addKeyFrame(problem, map.keyFrame(id), id == root);
-  for (map::KeyFrameId id : window.fixedKeyFrames) addKeyFrame(problem, map.keyFrame(id), true);
-  for (map::MapPointId id : window.points) addPointWithObservations(problem, map, map.mapPoint(id));
+  const std::set<map::KeyFrameId> local(window.localKeyFrames.begin(), window.localKeyFrames.end());
+  std::set<map::KeyFrameId> fixed;
+  for (map::MapPointId id : window.points) {
+    const map::MapPoint& p = map.mapPoint(id);
+    if (usePoint && !usePoint(p)) continue;
+    addPointWithObservations(problem, map, p);
+    for (const auto& [kf, k] : p.observations)
+      if (!local.count(kf)) fixed.insert(kf);
+  }
+  for (map::KeyFrameId id : fixed) addKeyFrame(problem, map.keyFrame(id), true);
   return problem;
 }
 
-BAProblem makeGlobalProblem(const map::Map& map) {
+BAProblem makeGlobalProblem(const map::Map& map, const PointFilter& usePoint) {
   BAProblem problem;
   for (const auto& [id, kf] : map.keyFrames()) addKeyFrame(problem, kf, false);
   for (const auto& [id, p] : map.mapPoints())
-    if (!p.bad) addPointWithObservations(problem, map, p);
+    if (!p.bad && (!usePoint || usePoint(p))) addPointWithObservations(problem, map, p);
   return problem;
 }
 
@@ -84,15 +93,16 @@ MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BARe
 }
 
 MapUpdateSummary localBundleAdjustment(map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params,
-                                       BAResult* resultOut) {
-  const BAProblem problem = makeLocalProblem(map, centre, params);
+                                       BAResult* resultOut, const PointFilter& usePoint) {
+  const BAProblem problem = makeLocalProblem(map, centre, params, usePoint);
   const BAResult result = localBundleAdjustment(problem, params);
   if (resultOut) *resultOut = result;
   return applyResult(map, problem, result, true);
 }
 
-MapUpdateSummary globalBundleAdjustment(map::Map& map, const BundleAdjustmentParams& params, BAResult* resultOut) {
-  const BAProblem problem = makeGlobalProblem(map);
+MapUpdateSummary globalBundleAdjustment(map::Map& map, const BundleAdjustmentParams& params, BAResult* resultOut,
+                                        const PointFilter& usePoint) {
+  const BAProblem problem = makeGlobalProblem(map, usePoint);
   const BAResult result = globalBundleAdjustment(problem, params);
   if (resultOut) *resultOut = result;
   return applyResult(map, problem, result, false);

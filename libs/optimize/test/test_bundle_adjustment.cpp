@@ -222,6 +222,14 @@ TEST(LocalBA, ThroughTheMap) {
   for (const auto& [id, p] : map.mapPoints()) observationsAfter += p.numObservations();
   EXPECT_EQ(observationsAfter + u.observationsErased, observationsBefore);
   for (const auto& [id, T] : r.poses) EXPECT_EQ(map.keyFrame(id).T_cam_world.matrix(), T.matrix());
+
+  // A point filter (the probabilistic model's activation) leaves the rejected points out entirely.
+  const PointFilter evenOnly = [](const pslam::map::MapPoint& p) { return p.id % 2 == 0; };
+  const BAProblem filtered = makeLocalProblem(map, centre, params, evenOnly);
+  ASSERT_FALSE(filtered.points.empty());
+  for (const auto& [id, p] : filtered.points) EXPECT_EQ(id % 2, 0u);
+  for (const BAObservation& o : filtered.observations) EXPECT_EQ(o.point % 2, 0u);
+  EXPECT_LT(filtered.points.size(), makeLocalProblem(map, centre, params).points.size());
 }
 
 TEST(GlobalBA, ThroughTheMapTwoView) {

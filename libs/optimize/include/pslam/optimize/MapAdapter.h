@@ -1,18 +1,25 @@
 #pragma once
 // Glue between pslam::map::Map and the bundle adjuster: extract a window as a BAProblem, write a BAResult
 // back (poses, inverse depths, erasing outlier observations as ORB-SLAM does after local BA).
+#include <functional>
+
 #include "pslam/map/Map.h"
 #include "pslam/optimize/BundleAdjustment.h"
 
 namespace pslam::optimize {
 
-/// Local window of `centre` (Map::localWindow with params.maxLocalKeyFrames): local keyframes free, the
-/// others observing local points fixed; the root keyframe is always fixed (gauge when no other keyframe
-/// is). Bad points are left out.
-BAProblem makeLocalProblem(const map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params = {});
+/// Which map points take part in an optimization. Thesis §3.4.3: only points the probabilistic model
+/// currently considers inliers (inlier ratio >= psi_min); empty = every non-bad point.
+using PointFilter = std::function<bool(const map::MapPoint&)>;
 
-/// Every keyframe and every non-bad point of the map (globalBundleAdjustment fixes the root).
-BAProblem makeGlobalProblem(const map::Map& map);
+/// Local window of `centre` (Map::localWindow with params.maxLocalKeyFrames): local keyframes free, the
+/// others observing the selected local points fixed; the root keyframe is always fixed (gauge when no
+/// other keyframe is). Bad points and points rejected by `usePoint` are left out.
+BAProblem makeLocalProblem(const map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params = {},
+                           const PointFilter& usePoint = {});
+
+/// Every keyframe and every non-bad point accepted by `usePoint` (globalBundleAdjustment fixes the root).
+BAProblem makeGlobalProblem(const map::Map& map, const PointFilter& usePoint = {});
 
 struct MapUpdateSummary {
   int posesUpdated = 0;
@@ -29,11 +36,11 @@ MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BARe
 /// Convenience for local mapping: makeLocalProblem + localBundleAdjustment + applyResult.
 /// `resultOut` (optional) receives the optimizer's report (costs, RMS, timings).
 MapUpdateSummary localBundleAdjustment(map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params = {},
-                                       BAResult* resultOut = nullptr);
+                                       BAResult* resultOut = nullptr, const PointFilter& usePoint = {});
 
 /// Convenience for the initial map: makeGlobalProblem + globalBundleAdjustment + applyResult. Outlier
 /// observations are reported in `resultOut` but not erased (ORB-SLAM leaves that to the initializer).
 MapUpdateSummary globalBundleAdjustment(map::Map& map, const BundleAdjustmentParams& params = {},
-                                        BAResult* resultOut = nullptr);
+                                        BAResult* resultOut = nullptr, const PointFilter& usePoint = {});
 
 }  // namespace pslam::optimize
