@@ -164,33 +164,41 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
   // ---- Transform primitives to the camera frame and bound their projections.
   std::vector<Prim> prims;
   prims.reserve(scene.rects.size() + 2 * scene.objects.size());
-  auto bound = [&](Prim& p, const Eigen::Vector3d* corners, int n) {
-    bool anyBehind = false, allBehind = true;
+  // Screen bounding box of a convex primitive from its corners and edges: the part in front of the near
+  // plane is the hull of the front corners and of the edges' crossings of the near plane.
+  auto bound = [&](Prim& p, const Eigen::Vector3d* corners, int n, const int (*edges)[2], int nEdges) {
     double u0 = 1e18, u1 = -1e18, v0 = 1e18, v1 = -1e18;
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3d& c = corners[i];
-      if (c.z() < nearClip) {
-        anyBehind = true;
-        continue;
-      }
-      allBehind = false;
+    bool any = false;
+    auto addPoint = [&](const Eigen::Vector3d& c) {
       const double u = fx * c.x() / c.z() + cx, v = fy * c.y() / c.z() + cy;
       u0 = std::min(u0, u);
       u1 = std::max(u1, u);
       v0 = std::min(v0, v);
       v1 = std::max(v1, v);
+      any = true;
+    };
+    for (int i = 0; i < n; ++i)
+      if (corners[i].z() >= nearClip) addPoint(corners[i]);
+    for (int e = 0; e < nEdges; ++e) {
+      const Eigen::Vector3d& a = corners[edges[e][0]];
+      const Eigen::Vector3d& b = corners[edges[e][1]];
+      if ((a.z() < nearClip) != (b.z() < nearClip)) {
+        const double w = (nearClip - a.z()) / (b.z() - a.z());
+        Eigen::Vector3d c = a + w * (b - a);
+        c.z() = nearClip;
+        addPoint(c);
+      }
     }
-    if (allBehind) return false;
-    if (anyBehind) {  // crosses the near plane: be conservative
-      p.x0 = 0, p.y0 = 0, p.x1 = W - 1, p.y1 = H - 1;
-      return true;
-    }
-    p.x0 = std::max(0, static_cast<int>(std::floor(u0)) - 1);
-    p.x1 = std::min(W - 1, static_cast<int>(std::ceil(u1)) + 1);
-    p.y0 = std::max(0, static_cast<int>(std::floor(v0)) - 1);
-    p.y1 = std::min(H - 1, static_cast<int>(std::ceil(v1)) + 1);
+    if (!any) return false;
+    p.x0 = static_cast<int>(std::max(0.0, std::floor(std::max(u0, -1e9)) - 1));
+    p.x1 = static_cast<int>(std::min(W - 1.0, std::ceil(std::min(u1, 1e9)) + 1));
+    p.y0 = static_cast<int>(std::max(0.0, std::floor(std::max(v0, -1e9)) - 1));
+    p.y1 = static_cast<int>(std::min(H - 1.0, std::ceil(std::min(v1, 1e9)) + 1));
     return p.x0 <= p.x1 && p.y0 <= p.y1;
   };
+  static const int kRectEdges[4][2] = {{0, 1}, {1, 3}, {3, 2}, {2, 0}};
+  static const int kBoxEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
+                                       {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
   for (std::size_t i = 0; i < scene.rects.size(); ++i) {
     const auto& r = scene.rects[i];
     Prim p;
@@ -204,7 +212,7 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
     p.su = r.sizeS;
     p.sv = r.sizeT;
     const Eigen::Vector3d corners[4] = {p.o, p.o + p.su * p.u, p.o + p.sv * p.v, p.o + p.su * p.u + p.sv * p.v};
-    if (bound(p, corners, 4)) prims.push_back(p);
+    if (bound(p, corners, 4, kRectEdges, 4)) prims.push_back(p);
   }
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
     const auto& obj = scene.objects[oi];
@@ -226,7 +234,7 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
                                     (c & 4 ? 1 : -1) * p.half.z());
         corners[c] = T_cam_box * local;
       }
-      if (bound(p, corners, 8)) prims.push_back(p);
+      if (bound(p, corners, 8, kBoxEdges, 12)) prims.push_back(p);
     }
   }
 
@@ -238,9 +246,14 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
     for (int ty = p.y0 / kTile; ty <= p.y1 / kTile; ++ty)
       for (int tx = p.x0 / kTile; tx <= p.x1 / kTile; ++tx) tiles[ty * tilesX + tx].push_back(static_cast<int>(i));
   }
-  auto castRay = [&](const Eigen::Vector3d& d, const std::vector<int>& candidates, Hit& hit) {
+  // Casts the ray d of pixel (x, y) against the primitives whose box contains the pixel.
+  auto castRay = [&](const Eigen::Vector3d& d, int x, int y, Hit& hit) {
     hit = Hit{};
-    for (int idx : candidates) intersect(prims[idx], d, nearClip, hit, idx);
+    for (int idx : tiles[(y / kTile) * tilesX + x / kTile]) {
+      const Prim& p = prims[idx];
+      if (x < p.x0 || x > p.x1 || y < p.y0 || y > p.y1) continue;
+      intersect(p, d, nearClip, hit, idx);
+    }
     return hit.prim >= 0;
   };
 
@@ -263,7 +276,7 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
     for (int x = 0; x < W; ++x) {
       const Eigen::Vector3d d((x - cx) / fx, dy, 1.0);
       Hit& h = hits[static_cast<std::size_t>(y) * W + x];
-      if (castRay(d, tiles[(y / kTile) * tilesX + x / kTile], h)) {
+      if (castRay(d, x, y, h)) {
         const Prim& p = prims[h.prim];
         depthRow[x] = static_cast<float>(h.t);
         const Eigen::Vector3d n = normalOf(p, h.face, d);
@@ -349,12 +362,11 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
       } else {
         const int Ne = std::max(N, 2);  // silhouettes are always supersampled
         const double step = 1.0 / Ne;
-        const auto& candidates = tiles[(y / kTile) * tilesX + x / kTile];
         for (int sy = 0; sy < Ne; ++sy)
           for (int sx = 0; sx < Ne; ++sx) {
             const Eigen::Vector3d d((x - 0.5 + (sx + 0.5) * step - cx) / fx, (y - 0.5 + (sy + 0.5) * step - cy) / fy, 1.0);
             Hit sub;
-            if (castRay(d, candidates, sub)) value += shadeSample(prims[sub.prim], sub.face, d, sub, step);
+            if (castRay(d, x, y, sub)) value += shadeSample(prims[sub.prim], sub.face, d, sub, step);
             else value += skyRadiance(d);
           }
         value /= Ne * Ne;

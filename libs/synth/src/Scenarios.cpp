@@ -74,10 +74,10 @@ Scenario makeRoom(std::uint32_t seed, bool lowTextureVariant) {
     const int floor = s.addMaterial(material(TextureKind::Tiles, TrainId::Road, dice.seed(), 0.55f, 0.12f));
     const int ceiling = s.addMaterial(material(TextureKind::Ceiling, TrainId::Wall, dice.seed(), 0.8f, 0.03f));
     const int walls[4] = {
-        s.addMaterial(material(TextureKind::PosterWall, TrainId::Wall, dice.seed(), 0.7f, 0.08f)),
+        s.addMaterial(material(TextureKind::PosterWall, TrainId::Wall, dice.seed(), 0.7f, 0.16f)),
         s.addMaterial(material(TextureKind::Bricks, TrainId::Wall, dice.seed(), 0.5f, 0.15f)),
-        s.addMaterial(material(TextureKind::PosterWall, TrainId::Wall, dice.seed(), 0.65f, 0.1f)),
-        s.addMaterial(material(TextureKind::CorridorWall, TrainId::Wall, dice.seed(), 0.72f, 0.06f, {2.5f}))};
+        s.addMaterial(material(TextureKind::PosterWall, TrainId::Wall, dice.seed(), 0.65f, 0.18f)),
+        s.addMaterial(material(TextureKind::CorridorWall, TrainId::Wall, dice.seed(), 0.72f, 0.12f, {2.5f}))};
     addRoomShell(s, X, Y, Z, floor, walls, ceiling);
     // Furniture (static, labelled building = "other static structure"; Cityscapes has no furniture class).
     const int wood = s.addMaterial(material(TextureKind::Wood, TrainId::Building, dice.seed(), 0.45f, 0.35f));
@@ -427,7 +427,7 @@ ScenarioInfo scenarioInfo(const std::string& name) {
     i.description = "70 m corridor loop (24 x 12 m) around an inner block with doors and notice boards; the "
                     "camera returns to its start, so drift is visible (HRBB4-like)";
     i.fps = 15;
-    i.depthUnit = 1.0 / 5000.0;
+    i.depthUnit = 1.0 / 2000.0;  // the 20 m straights exceed the 13 m range of 1/5000 m units
     i.focalAt640 = 450.0;
     i.defaultFrames = static_cast<int>(std::ceil((corridorLoopLength() / 1.2 + 0.75 + 1.0) * 15));
   } else {

@@ -140,7 +140,8 @@ float road(const Material& m, const SurfacePoint& p) {
     paint = std::max(paint, inZebra * band);
   }
   if (m.param[2] > 0) paint = std::max(paint, interval(p.s, m.param[2] - 0.4, m.param[2], fp) * interval(y, -6.0, 0.0, fp));
-  // Worn paint: multiply by a noisy factor so markings are not perfectly uniform.
+  if (paint <= 0) return static_cast<float>(a);
+  // Worn paint: a noisy reflectance so markings are not perfectly uniform.
   const double wear = 0.8 + 0.15 * fractalNoise(p.s, p.t, m.seed + 5, 3.0, 4, fp);
   return static_cast<float>(lerp(a, wear, paint));
 }
@@ -272,11 +273,11 @@ float corridorWall(const Material& m, const SurfacePoint& p) {
 float posterWall(const Material& m, const SurfacePoint& p) {
   const double fp = p.footprint;
   double a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 1.0, 8, fp));
-  const double cellW = 1.7;
+  const double cellW = 1.4;
   const auto ci = static_cast<std::int64_t>(std::floor(p.s / cellW));
-  if (hashUnit(ci, 0, m.seed + 3) > 0.6f) return static_cast<float>(a);
-  const double w = 0.45 + 0.7 * hashUnit(ci, 1, m.seed + 3);
-  const double h = 0.5 + 0.6 * hashUnit(ci, 2, m.seed + 3);
+  if (hashUnit(ci, 0, m.seed + 3) > 0.8f) return static_cast<float>(a);
+  const double w = 0.5 + 0.75 * hashUnit(ci, 1, m.seed + 3) * (cellW - 0.5) / 0.9;
+  const double h = 0.55 + 0.6 * hashUnit(ci, 2, m.seed + 3);
   const double s0 = ci * cellW + (cellW - w) * hashUnit(ci, 3, m.seed + 3);
   const double t0 = 0.9 + 0.5 * hashUnit(ci, 4, m.seed + 3);
   const double cov = rectCoverage(p, s0, s0 + w, t0, t0 + h);
