@@ -9,6 +9,7 @@
 #include <optional>
 #include <sstream>
 
+#include <Eigen/Geometry>
 #include <mrpt/config/CConfigFile.h>
 #include <mrpt/config/CConfigFileMemory.h>
 
@@ -18,6 +19,7 @@
 #include "pslam/core/StageTimer.h"
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam/eval/Plot.h"
 #include "pslam/manhattan/ManhattanTracker.h"
 #include "pslam/priors/NormalSource.h"
 
@@ -56,7 +58,9 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   }
   auto normalSource = priors::makeNormalSource(o.normals, o.config);
   std::unique_ptr<priors::NormalSource> referenceSource;
-  if (!o.referenceNormals.empty()) referenceSource = priors::makeNormalSource(o.referenceNormals, o.config);
+  if (!o.referenceNormals.empty())
+    referenceSource =
+        priors::makeNormalSource(o.referenceNormals, o.referenceConfig.empty() ? o.config : o.referenceConfig);
 
   fs::path gtPath = o.groundTruth;
   if (gtPath.empty()) gtPath = o.rawlog.parent_path() / (o.rawlog.stem().string() + "_groundtruth.txt");
@@ -70,7 +74,7 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   StageTimings timings;
   priors::NormalErrorAccumulator accuracy;
   nlohmann::json perFrame = nlohmann::json::array();
-  std::vector<double> errors;
+  std::vector<double> errors, errorFrames, gtAngles;
   std::size_t nFrames = 0, nValid = 0, nWithGt = 0;
   std::optional<Eigen::Matrix3d> R_c0_mf, R_w_c0;  // reference: first frame with a valid estimate and GT
   datasets::Frame frame;
@@ -96,6 +100,8 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
     }
     nlohmann::json rec = {{"index", frame.index}, {"timestamp", frame.timestamp}, {"normals", normals.size()}};
     rec["estimate"] = est.toJson();
+    const Eigen::Quaterniond q_cam_mf(est.R_cam_mf);
+    rec["q_cam_mf_xyzw"] = {q_cam_mf.x(), q_cam_mf.y(), q_cam_mf.z(), q_cam_mf.w()};
     const StampedPose* pose = nearestPose(gt, frame.timestamp, o.maxGroundTruthDt);
     if (pose) ++nWithGt;
     if (est.valid) ++nValid;
@@ -110,6 +116,8 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
       const Eigen::Matrix3d gtRel = R_w_c0->transpose() * R_w_ci;
       const double err = rotationAngleDeg(estRel, gtRel);
       errors.push_back(err);
+      errorFrames.push_back(static_cast<double>(frame.index));
+      gtAngles.push_back(rotationAngleDeg(Eigen::Matrix3d::Identity(), gtRel));
       rec["rotation_error_deg"] = err;
       rec["gt_rotation_from_first_deg"] = rotationAngleDeg(Eigen::Matrix3d::Identity(), gtRel);
     }
@@ -141,6 +149,7 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   config["ground_truth"] = gtPath.string();
   config["normals"] = o.normals;
   config["reference_normals"] = o.referenceNormals;
+  config["reference_config"] = (o.referenceConfig.empty() ? o.config : o.referenceConfig).string();
   config["normal_stride"] = o.normalStride;
 
   ManhattanEvalResult r;
@@ -167,6 +176,19 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   r.text = t.str();
   if (!o.outputJson.empty())
     writeFileAtomically(o.outputJson, [&](std::ostream& os) { os << r.report.dump(2) << "\n"; });
+  if (!o.outputPlot.empty()) {
+    eval::Plot plot("Manhattan-frame rotation error vs ground truth (" + o.normals + " normals)", "frame",
+                    "degrees");
+    plot.addLine(errorFrames, errors, "rotation error (relative to first frame)", eval::colors::red());
+    std::vector<double> scaled(gtAngles.size());
+    for (std::size_t i = 0; i < gtAngles.size(); ++i) scaled[i] = gtAngles[i] / 10.0;
+    plot.addLine(errorFrames, scaled, "GT rotation from first frame / 10", eval::colors::grey(), 1);
+    double top = 1.0;
+    for (double e : errors) top = std::max(top, e);
+    for (double g : scaled) top = std::max(top, g);
+    plot.setYRange(0.0, 1.1 * top);
+    plot.save(o.outputPlot);
+  }
   if (!o.outputText.empty()) writeFileAtomically(o.outputText, [&](std::ostream& os) { os << r.text; });
   return r;
 }

@@ -87,6 +87,7 @@ TEST(ManhattanEvalApp, FollowsACameraTurningInsideABoxRoom) {
   o.normals = "depth";
   o.outputJson = dir.path / "out" / "report.json";
   o.outputText = dir.path / "out" / "report.txt";
+  o.outputPlot = dir.path / "out" / "errors.png";
   o.progress = false;
   const auto r = manhattan::runManhattanEval(o);
   const auto& s = r.report["summary"];
@@ -98,6 +99,7 @@ TEST(ManhattanEvalApp, FollowsACameraTurningInsideABoxRoom) {
   EXPECT_GT(r.report["frames"].back()["gt_rotation_from_first_deg"].get<double>(), 80.0);
   EXPECT_TRUE(fs::exists(o.outputJson));
   EXPECT_TRUE(fs::exists(o.outputText));
+  EXPECT_TRUE(fs::exists(o.outputPlot));
   EXPECT_TRUE(s.contains("timings_ms"));
 
   // Normal accuracy between two sources: rawlog has no NORMALS here, which must be reported by frame.

@@ -16,10 +16,12 @@ struct ManhattanEvalOptions {
   std::string normals = "rawlog";     ///< normals for the tracker: rawlog | depth | network
   std::string referenceNormals;       ///< optional second source; metrics of `normals` against it
   std::filesystem::path config;       ///< ini: [ManhattanTracker], [NormalsFromDepth], [NormalsFromNetwork]
+  std::filesystem::path referenceConfig;  ///< ini of the reference source; empty = `config`
   int normalStride = 2;               ///< pixel stride when collecting normals for the tracker
   double maxGroundTruthDt = 0.02;     ///< [s] ground-truth association window
   std::filesystem::path outputJson;   ///< optional, written atomically
   std::filesystem::path outputText;   ///< optional, written atomically (the text is also returned)
+  std::filesystem::path outputPlot;   ///< optional PNG: rotation error and GT rotation per frame
   bool progress = true;
 };
 
