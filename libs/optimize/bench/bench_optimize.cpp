@@ -48,12 +48,14 @@ static void BM_LocalBundleAdjustment(benchmark::State& state) {
   opt.fixedKeyFrames = opt.keyframes - 20;
   opt.points = static_cast<int>(state.range(1));
   opt.visibilityWindow = static_cast<int>(state.range(2));
+  BundleAdjustmentParams params;
+  params.linearSolver = state.range(3) ? "dense_schur" : "sparse_schur";
   opt.poseRotationNoise = 0.005;
   opt.poseTranslationNoise = 0.02;
   const SyntheticBA s = makeSyntheticBA(opt);
   BAResult r;
   for (auto _ : state) {
-    r = localBundleAdjustment(s.problem);
+    r = localBundleAdjustment(s.problem, params);
     benchmark::DoNotOptimize(r.poses);
   }
   state.counters["keyframes"] = opt.keyframes;
@@ -65,10 +67,13 @@ static void BM_LocalBundleAdjustment(benchmark::State& state) {
   state.counters["rms_px_before"] = r.initialRmsPixels;
   state.counters["rms_px_after"] = r.finalRmsPixels;
 }
+// Args: keyframes, points, visibility window, dense Schur (0 = SPARSE_SCHUR / SuiteSparse, 1 = DENSE_SCHUR).
 BENCHMARK(BM_LocalBundleAdjustment)
-    ->Args({30, 3000, 6})
-    ->Args({30, 6000, 6})
-    ->Args({30, 2000, 0})
+    ->Args({30, 3000, 6, 0})
+    ->Args({30, 3000, 6, 1})
+    ->Args({30, 6000, 6, 0})
+    ->Args({30, 6000, 6, 1})
+    ->Args({30, 2000, 0, 0})
     ->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

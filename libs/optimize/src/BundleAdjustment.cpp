@@ -143,7 +143,7 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
   }
 
   ceres::Solver::Options options;
-  options.linear_solver_type = ceres::SPARSE_SCHUR;
+  options.linear_solver_type = params.linearSolver == "dense_schur" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   options.linear_solver_ordering = ordering;
   options.max_num_iterations = iterations;

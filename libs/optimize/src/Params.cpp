@@ -55,6 +55,7 @@ void BundleAdjustmentParams::loadFromConfigFile(const mrpt::config::CConfigFileB
   chi2Threshold = cfg.read_double(s, "chi2Threshold", chi2Threshold);
   numThreads = cfg.read_int(s, "numThreads", numThreads);
   functionTolerance = cfg.read_double(s, "functionTolerance", functionTolerance);
+  linearSolver = cfg.read_string(s, "linearSolver", linearSolver);
   check();
 }
 
@@ -67,6 +68,7 @@ void BundleAdjustmentParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg
   cfg.write(s, "chi2Threshold", chi2Threshold);
   cfg.write(s, "numThreads", numThreads);
   cfg.write(s, "functionTolerance", functionTolerance);
+  cfg.write(s, "linearSolver", linearSolver);
 }
 
 void BundleAdjustmentParams::check() const {
@@ -78,6 +80,8 @@ void BundleAdjustmentParams::check() const {
   requireKey(positiveFinite(chi2Threshold), "chi2Threshold", "must be finite and > 0");
   requireKey(numThreads >= 1, "numThreads", "must be >= 1");
   requireKey(positiveFinite(functionTolerance), "functionTolerance", "must be finite and > 0");
+  requireKey(linearSolver == "sparse_schur" || linearSolver == "dense_schur", "linearSolver",
+             "must be sparse_schur or dense_schur, got '" + linearSolver + "'");
 }
 
 }  // namespace pslam::optimize

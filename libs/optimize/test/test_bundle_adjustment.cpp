@@ -40,6 +40,30 @@ TEST(LocalBA, NoiseFreeRecoversTruthDespiteOutliers) {
   EXPECT_EQ(r.outliers, gross);
 }
 
+TEST(LocalBA, DenseSchurReachesTheSameMinimum) {
+  SyntheticOptions opt;
+  opt.points = 200;
+  const SyntheticBA s = makeSyntheticBA(opt);
+  BundleAdjustmentParams dense;
+  dense.linearSolver = "dense_schur";
+  const BAResult a = localBundleAdjustment(s.problem);
+  const BAResult b = localBundleAdjustment(s.problem, dense);
+  for (const auto& [id, T] : a.poses) {
+    EXPECT_LT(rotationErrorRad(T, b.poses.at(id)), 1e-8);
+    EXPECT_LT(centreError(T, b.poses.at(id)), 1e-7);
+  }
+  EXPECT_EQ(a.outliers, b.outliers);
+  mrpt::config::CConfigFileMemory cfg;
+  cfg.write("ba", "linearSolver", "cholesky");
+  BundleAdjustmentParams p;
+  try {
+    p.loadFromConfigFile(cfg, "ba");
+    FAIL() << "unknown linearSolver accepted";
+  } catch (const pslam::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("linearSolver"), std::string::npos) << e.what();
+  }
+}
+
 TEST(LocalBA, NoisyConvergesToTheOptimum) {
   SyntheticOptions opt;
   const SyntheticBA s = makeSyntheticBA(opt);

@@ -34,6 +34,9 @@ struct BundleAdjustmentParams {
   double chi2Threshold = 5.991;    ///< chi_R (Table 3.2)
   int numThreads = 1;              ///< Ceres threads; 1 keeps runs bit-for-bit repeatable
   double functionTolerance = 1e-6; ///< Ceres relative cost-change convergence test
+  /// "sparse_schur" (SuiteSparse Cholesky of the reduced camera system) or "dense_schur" (dense Cholesky,
+  /// often faster for the ~30 poses of a local window; see bench_optimize).
+  std::string linearSolver = "sparse_schur";
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
   void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
