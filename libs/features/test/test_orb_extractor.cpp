@@ -266,6 +266,10 @@ TEST(OrbExtractor, QuadtreeKeepsStrongestAndReachesTarget) {
   }
   EXPECT_EQ(OrbExtractor::distributeQuadtree(kps, 0, 600, 0, 400, 10000).size(), kps.size());
   EXPECT_TRUE(OrbExtractor::distributeQuadtree({}, 0, 600, 0, 400, 10).empty());
+  // Coincident keypoints cannot be separated: the division must stop and keep one of them.
+  std::vector<cv::KeyPoint> same(50, cv::KeyPoint(cv::Point2f(10, 10), 31.f, -1.f, 5.f));
+  same.emplace_back(cv::Point2f(300, 200), 31.f, -1.f, 1.f);
+  EXPECT_EQ(OrbExtractor::distributeQuadtree(same, 0, 600, 0, 400, 100).size(), 2u);
 }
 
 TEST(OrbParams, ConfigRoundTripAndChecksNameTheKey) {
