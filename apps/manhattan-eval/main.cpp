@@ -23,6 +23,9 @@ int main(int argc, char** argv) {
   app.add_option("--config", opt.config, "ini with [ManhattanTracker], [NormalsFromDepth], [NormalsFromNetwork]");
   app.add_option("--reference-config", opt.referenceConfig, "ini for the reference source (default: --config)");
   app.add_option("--plot", opt.outputPlot, "Write a PNG of the per-frame rotation error");
+  app.add_option("--reference-frame", opt.referenceFrame,
+                 "Rotation errors relative to the first evaluated frame with index >= this")
+      ->capture_default_str();
   app.add_option("--normal-stride", opt.normalStride, "Pixel stride when collecting normals")->capture_default_str();
   app.add_option("--max-gt-dt", opt.maxGroundTruthDt, "Ground-truth association window (s)")->capture_default_str();
   app.add_option("--json", opt.outputJson, "Write the full report (config, per-frame, summary) as JSON");

@@ -76,7 +76,12 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   nlohmann::json perFrame = nlohmann::json::array();
   std::vector<double> errors, errorFrames, gtAngles;
   std::size_t nFrames = 0, nValid = 0, nWithGt = 0;
-  std::optional<Eigen::Matrix3d> R_c0_mf, R_w_c0;  // reference: first frame with a valid estimate and GT
+  struct Evaluated {
+    std::size_t record;  // position in perFrame
+    std::size_t frameIndex;
+    Eigen::Matrix3d R_cam_mf, R_w_cam;
+  };
+  std::vector<Evaluated> evaluated;  // frames with a valid estimate and ground truth
   datasets::Frame frame;
   while (frames.next(frame)) {
     ++nFrames;
@@ -105,27 +110,39 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
     const StampedPose* pose = nearestPose(gt, frame.timestamp, o.maxGroundTruthDt);
     if (pose) ++nWithGt;
     if (est.valid) ++nValid;
-    if (est.valid && pose) {
-      const Eigen::Matrix3d R_w_ci = pose->orientation.toRotationMatrix();
-      if (!R_c0_mf) {
-        R_c0_mf = est.R_cam_mf;
-        R_w_c0 = R_w_ci;
-      }
-      // Relative to the first frame: R_c0_ci = R_c0_mf R_ci_mf^T (tracker) vs R_w_c0^T R_w_ci (ground truth).
-      const Eigen::Matrix3d estRel = *R_c0_mf * est.R_cam_mf.transpose();
-      const Eigen::Matrix3d gtRel = R_w_c0->transpose() * R_w_ci;
-      const double err = rotationAngleDeg(estRel, gtRel);
-      errors.push_back(err);
-      errorFrames.push_back(static_cast<double>(frame.index));
-      gtAngles.push_back(rotationAngleDeg(Eigen::Matrix3d::Identity(), gtRel));
-      rec["rotation_error_deg"] = err;
-      rec["gt_rotation_from_first_deg"] = rotationAngleDeg(Eigen::Matrix3d::Identity(), gtRel);
-    }
+    if (est.valid && pose)
+      evaluated.push_back({perFrame.size(), frame.index, est.R_cam_mf, pose->orientation.toRotationMatrix()});
     perFrame.push_back(rec);
     progress.update(nFrames, est.valid ? "ok" : est.reason);
   }
   progress.finish(std::to_string(nValid) + "/" + std::to_string(nFrames) + " frames accepted");
   require(nFrames > 0, o.rawlog.string(), "no frames");
+
+  // Errors relative to the reference frame k (default: the first evaluated one):
+  // R_ck_ci = R_ck_mf R_ci_mf^T (tracker) against R_w_ck^T R_w_ci (ground truth).
+  const auto ref = std::find_if(evaluated.begin(), evaluated.end(),
+                                [&](const Evaluated& e) { return e.frameIndex >= o.referenceFrame; });
+  std::size_t referenceIndex = 0;
+  if (ref != evaluated.end()) {
+    referenceIndex = ref->frameIndex;
+    for (const auto& e : evaluated) {
+      const Eigen::Matrix3d estRel = ref->R_cam_mf * e.R_cam_mf.transpose();
+      const Eigen::Matrix3d gtRel = ref->R_w_cam.transpose() * e.R_w_cam;
+      const double err = rotationAngleDeg(estRel, gtRel);
+      const double gtAngle = rotationAngleDeg(Eigen::Matrix3d::Identity(), gtRel);
+      errors.push_back(err);
+      errorFrames.push_back(static_cast<double>(e.frameIndex));
+      gtAngles.push_back(gtAngle);
+      perFrame[e.record]["rotation_error_deg"] = err;
+      perFrame[e.record]["gt_rotation_from_reference_deg"] = gtAngle;
+    }
+  }
+  // Between consecutive evaluated frames (a rotational RPE): independent of the reference frame's estimate.
+  std::vector<double> stepErrors;
+  for (std::size_t i = 1; i < evaluated.size(); ++i) {
+    const auto &a = evaluated[i - 1], &b = evaluated[i];
+    stepErrors.push_back(rotationAngleDeg(a.R_cam_mf * b.R_cam_mf.transpose(), a.R_w_cam.transpose() * b.R_w_cam));
+  }
 
   nlohmann::json summary;
   summary["frames"] = nFrames;
@@ -133,6 +150,10 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   summary["accepted_frames"] = nValid;
   summary["success_share"] = static_cast<double>(nValid) / nFrames;
   summary["evaluated_frames"] = errors.size();
+  summary["reference_frame"] = referenceIndex;
+  const bool haveSteps = !stepErrors.empty();
+  summary["step_error_median_deg"] = haveSteps ? median(stepErrors) : std::nan("");
+  summary["step_error_max_deg"] = haveSteps ? *std::max_element(stepErrors.begin(), stepErrors.end()) : std::nan("");
   const bool haveErr = !errors.empty();
   summary["rotation_error_median_deg"] = haveErr ? median(errors) : std::nan("");
   summary["rotation_error_max_deg"] = haveErr ? *std::max_element(errors.begin(), errors.end()) : std::nan("");
@@ -162,7 +183,11 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   if (haveErr) {
     t << "  rotation error vs GT [deg] median " << summary["rotation_error_median_deg"].get<double>() << "  max "
       << summary["rotation_error_max_deg"].get<double>() << "  mean " << summary["rotation_error_mean_deg"].get<double>()
-      << "  (" << errors.size() << " frames, relative to the first accepted frame)\n";
+      << "  (" << errors.size() << " frames, relative to frame " << referenceIndex << ")\n";
+  }
+  if (haveSteps) {
+    t << "  step error [deg]           median " << summary["step_error_median_deg"].get<double>() << "  max "
+      << summary["step_error_max_deg"].get<double>() << "  (between consecutive evaluated frames)\n";
   }
   for (const auto& [stage, s] : summary["timings_ms"].items())
     t << "  time " << std::left << std::setw(22) << stage << std::right << " median " << s["median_ms"].get<double>()
@@ -179,10 +204,10 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   if (!o.outputPlot.empty()) {
     eval::Plot plot("Manhattan-frame rotation error vs ground truth (" + o.normals + " normals)", "frame",
                     "degrees");
-    plot.addLine(errorFrames, errors, "rotation error (relative to first frame)", eval::colors::red());
+    plot.addLine(errorFrames, errors, "rotation error (relative to frame " + std::to_string(referenceIndex) + ")", eval::colors::red());
     std::vector<double> scaled(gtAngles.size());
     for (std::size_t i = 0; i < gtAngles.size(); ++i) scaled[i] = gtAngles[i] / 10.0;
-    plot.addLine(errorFrames, scaled, "GT rotation from first frame / 10", eval::colors::grey(), 1);
+    plot.addLine(errorFrames, scaled, "GT rotation from that frame / 10", eval::colors::grey(), 1);
     double top = 1.0;
     for (double e : errors) top = std::max(top, e);
     for (double g : scaled) top = std::max(top, g);

@@ -96,11 +96,20 @@ TEST(ManhattanEvalApp, FollowsACameraTurningInsideABoxRoom) {
   EXPECT_EQ(s["evaluated_frames"].get<int>(), 8);
   EXPECT_LT(s["rotation_error_max_deg"].get<double>(), 0.5);  // exact planes; u16 depth quantization only
   // The last frame is ~85 deg from the first: the errors are not small because nothing moved.
-  EXPECT_GT(r.report["frames"].back()["gt_rotation_from_first_deg"].get<double>(), 80.0);
+  EXPECT_GT(r.report["frames"].back()["gt_rotation_from_reference_deg"].get<double>(), 80.0);
+  EXPECT_LT(s["step_error_max_deg"].get<double>(), 0.5);
+  EXPECT_EQ(s["reference_frame"].get<int>(), 0);
   EXPECT_TRUE(fs::exists(o.outputJson));
   EXPECT_TRUE(fs::exists(o.outputText));
   EXPECT_TRUE(fs::exists(o.outputPlot));
   EXPECT_TRUE(s.contains("timings_ms"));
+
+  // Another reference frame: the errors stay small (nothing depends on frame 0 being special).
+  o.referenceFrame = 3;
+  const auto r3 = manhattan::runManhattanEval(o);
+  EXPECT_EQ(r3.report["summary"]["reference_frame"].get<int>(), 3);
+  EXPECT_LT(r3.report["summary"]["rotation_error_max_deg"].get<double>(), 0.5);
+  EXPECT_NEAR(r3.report["frames"][3]["rotation_error_deg"].get<double>(), 0.0, 1e-4);  // acos resolution
 
   // Normal accuracy between two sources: rawlog has no NORMALS here, which must be reported by frame.
   o.referenceNormals = "rawlog";

@@ -17,6 +17,7 @@ struct ManhattanEvalOptions {
   std::string referenceNormals;       ///< optional second source; metrics of `normals` against it
   std::filesystem::path config;       ///< ini: [ManhattanTracker], [NormalsFromDepth], [NormalsFromNetwork]
   std::filesystem::path referenceConfig;  ///< ini of the reference source; empty = `config`
+  std::size_t referenceFrame = 0;     ///< errors relative to the first evaluated frame with index >= this
   int normalStride = 2;               ///< pixel stride when collecting normals for the tracker
   double maxGroundTruthDt = 0.02;     ///< [s] ground-truth association window
   std::filesystem::path outputJson;   ///< optional, written atomically
