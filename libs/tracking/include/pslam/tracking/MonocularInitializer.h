@@ -1,0 +1,66 @@
+#pragma once
+// Monocular map initialization (ORB-SLAM's Tracking::MonocularInitialization + CreateInitialMapMonocular,
+// thesis §3.4.1): a reference frame is kept until a later frame has enough SearchForInitialization matches and
+// the two-view initializer (H/F model selection, Algorithm 1) accepts a reconstruction. The initial map is two
+// keyframes and the triangulated points, refined by global BA and scaled so that the median scene depth of the
+// first keyframe is 1.
+#include <cstddef>
+#include <optional>
+#include <random>
+#include <string>
+
+#include <mrpt/config/CConfigFileBase.h>
+
+#include "pslam/features/Matching.h"
+#include "pslam/geometry/TwoViewInitializer.h"
+#include "pslam/map/Map.h"
+#include "pslam/optimize/Params.h"
+#include "pslam/tracking/Frame.h"
+
+namespace pslam::tracking {
+
+struct InitializerParams {
+  int minKeypoints = 100;       ///< a frame with fewer keypoints cannot be a reference (ORB-SLAM: 100)
+  int minMatches = 100;         ///< fewer SearchForInitialization matches: the current frame becomes the reference
+  int minMapPoints = 100;       ///< fewer points after global BA: the initial map is discarded (ORB-SLAM: 100)
+  int maxReferenceAge = 30;     ///< frames: an older reference is replaced (not in ORB-SLAM; avoids stale references)
+  float windowHalfSize = 100.f; ///< SearchForInitialization window (px)
+  float nnRatio = 0.9f;         ///< SearchForInitialization ratio
+  geometry::TwoViewParams twoView;
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  void check() const;
+};
+
+struct InitializationOutcome {
+  bool initialized = false;
+  std::string message;  ///< why not / what was built
+  int matches = 0;
+  map::KeyFrameId kf1 = map::kNoKeyFrame, kf2 = map::kNoKeyFrame;
+};
+
+class MonocularInitializer {
+ public:
+  MonocularInitializer(const geometry::PinholeCamera& camera, InitializerParams params,
+                       optimize::BundleAdjustmentParams baParams);
+
+  /// Feeds one frame. On success `map` (which must be empty) holds the initial map, `current` has its pose and
+  /// its matches to the new points, and the reference frame is returned in `referenceOut` with its pose.
+  InitializationOutcome process(Frame& current, map::Map& map, std::mt19937& rng, Frame* referenceOut = nullptr);
+  void reset() { reference_.reset(); }
+  bool hasReference() const { return reference_.has_value(); }
+
+ private:
+  geometry::PinholeCamera camera_;
+  InitializerParams params_;
+  optimize::BundleAdjustmentParams baParams_;
+  geometry::TwoViewInitializer twoView_;
+  std::optional<Frame> reference_;
+  std::vector<cv::Point2f> prevMatched_;
+};
+
+/// The map keyframe of a tracked frame (measurements only; associations are added by the caller).
+map::KeyFrame toKeyFrame(const Frame& frame);
+
+}  // namespace pslam::tracking

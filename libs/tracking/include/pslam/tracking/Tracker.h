@@ -1,0 +1,127 @@
+#pragma once
+// The tracking front end of ORB-SLAM* (thesis §2.4.1, §3.4): initialization, constant-velocity projection
+// tracking with a reference-keyframe fallback, local-map tracking, the keyframe decision and relocalization.
+// It reads and extends the map (keyframe insertion, point visibility counters); local mapping runs elsewhere.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <mrpt/config/CConfigFileBase.h>
+#include <nlohmann/json.hpp>
+
+#include "pslam/core/StageTimer.h"
+#include "pslam/geometry/Pnp.h"
+#include "pslam/map/Map.h"
+#include "pslam/tracking/Frame.h"
+#include "pslam/tracking/KeyFrameDecision.h"
+#include "pslam/tracking/MonocularInitializer.h"
+#include "pslam/tracking/PoseSolver.h"
+#include "pslam/tracking/ProjectionSearch.h"
+
+namespace pslam::tracking {
+
+struct TrackerParams {
+  float motionModelRadius = 15.f;   ///< frame-to-frame search radius factor (ORB-SLAM monocular th = 15)
+  int minMotionMatches = 20;        ///< below this the search is repeated with twice the radius
+  int minReferenceMatches = 15;     ///< reference-keyframe / relocalization descriptor matches needed
+  float referenceRatio = 0.7f;      ///< ratio test of the reference-keyframe descriptor matching (SearchByBoW)
+  int referenceMaxDistance = features::kOrbThLow;  ///< TH_LOW
+  int minPoseInliers = 10;          ///< inliers after motion/reference pose optimization
+  float localMapRadius = 1.f;       ///< local-map search radius factor (ORB-SLAM th = 1; 5 right after relocalization)
+  float localMapRatio = 0.8f;       ///< same-level ratio test of the local-map search
+  int maxLocalKeyFrames = 80;
+  int minLocalMapInliers = 30;      ///< tracking succeeds with this many inliers after local-map tracking
+  int minInliersAfterReloc = 50;    ///< ... within maxFrames after a relocalization
+  int relocalizationCandidates = 5; ///< keyframes with most descriptor matches tried by PnP
+  int resetKeyFrames = 5;           ///< lost with at most this many keyframes: reset and re-initialize
+  KeyFrameDecisionParams keyFrames;
+  geometry::PnpParams pnp;
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
+  void check() const;
+};
+
+enum class FrameStatus { Initializing, Tracking, Lost, Relocalized };
+const char* toString(FrameStatus status);
+
+struct FrameReport {
+  std::size_t index = 0;
+  double timestamp = 0;
+  FrameStatus status = FrameStatus::Initializing;
+  std::string method;          ///< initializer / motion / reference / relocalization / reset
+  int features = 0;
+  int matches = 0;             ///< after motion / reference / relocalization search
+  int inliers = 0;             ///< after local-map tracking
+  int localMapPoints = 0;      ///< candidates projected in local-map tracking
+  bool keyFrame = false;
+  std::size_t mapPoints = 0, keyFrames = 0;
+  std::string message;
+  nlohmann::json toJson() const;
+};
+
+class Tracker {
+ public:
+  Tracker(map::Map& map, const geometry::PinholeCamera& camera, TrackerParams params, InitializerParams initParams,
+          optimize::BundleAdjustmentParams baParams, std::unique_ptr<PoseSolver> solver, std::uint32_t seed);
+
+  struct Result {
+    FrameReport report;
+    bool hasPose = false;
+    Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
+    /// Keyframes inserted by this call (initialization inserts two); local mapping should process them.
+    std::vector<map::KeyFrameId> newKeyFrames;
+    bool mapWasReset = false;
+    /// The reference frame of a successful initialization (gets a pose retroactively), else nullopt.
+    std::optional<std::pair<double, Eigen::Isometry3d>> initialReferencePose;
+    /// Reference keyframe after this frame (ORB-SLAM stores frame poses relative to it), kNoKeyFrame if none.
+    map::KeyFrameId referenceKeyFrame = map::kNoKeyFrame;
+  };
+  /// Tracks one frame (stage timings go to `timings`: matching, pose_optimization, local_map, relocalization).
+  Result track(Frame frame, StageTimings& timings);
+
+  void setLocalMappingIdle(bool idle) { localMappingIdle_ = idle; }
+  void reset();
+  bool initialized() const { return initialized_; }
+  const Frame& lastFrame() const { return last_; }
+  const PoseSolver& poseSolver() const { return *solver_; }
+
+  // Building blocks (public for tests)
+  /// Pose optimization of `frame` against its matches; outliers are unmatched afterwards. Returns inliers.
+  int optimizeFramePose(Frame& frame);
+  bool trackWithMotionModel(Frame& frame);
+  bool trackReferenceKeyFrame(Frame& frame);
+  /// Returns inliers after local-map tracking.
+  int trackLocalMap(Frame& frame, int* localCandidates = nullptr);
+  bool relocalize(Frame& frame);
+  map::KeyFrameId createKeyFrame(const Frame& frame);
+
+ private:
+  void updateLocalKeyFrames(const Frame& frame);
+
+  map::Map& map_;
+  geometry::PinholeCamera camera_;
+  TrackerParams params_;
+  MonocularInitializer initializer_;
+  std::unique_ptr<PoseSolver> solver_;
+  std::mt19937 rng_;
+
+  bool initialized_ = false;
+  bool lost_ = false;
+  Frame last_;
+  bool haveVelocity_ = false;
+  Eigen::Isometry3d velocity_ = Eigen::Isometry3d::Identity();  ///< T_cur_last
+  map::KeyFrameId referenceKeyFrame_ = map::kNoKeyFrame;
+  std::size_t lastKeyFrameFrame_ = 0;
+  std::size_t lastRelocFrame_ = 0;
+  bool relocalizedEver_ = false;
+  bool localMappingIdle_ = true;
+  std::vector<map::KeyFrameId> localKeyFrames_;
+  StageTimings* timings_ = nullptr;  ///< of the current track() call
+};
+
+}  // namespace pslam::tracking

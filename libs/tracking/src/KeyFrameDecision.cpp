@@ -1,0 +1,16 @@
+#include "pslam/tracking/KeyFrameDecision.h"
+
+namespace pslam::tracking {
+
+bool needNewKeyFrame(const KeyFrameDecisionInput& in, const KeyFrameDecisionParams& p) {
+  // Shortly after a relocalization the map is not trusted enough to extend it.
+  if (in.relocalizedEver && in.frameIndex < in.lastRelocFrame + static_cast<std::size_t>(p.maxFrames) &&
+      in.numKeyFrames > static_cast<std::size_t>(p.maxFrames))
+    return false;
+  const bool c1a = in.frameIndex >= in.lastKeyFrameFrame + static_cast<std::size_t>(p.maxFrames);
+  const bool c1b = in.frameIndex >= in.lastKeyFrameFrame + static_cast<std::size_t>(p.minFrames) && in.localMappingIdle;
+  const bool c2 = in.trackedInliers < p.refRatio * in.referenceTrackedPoints && in.trackedInliers > p.minInliers;
+  return (c1a || c1b) && c2;
+}
+
+}  // namespace pslam::tracking

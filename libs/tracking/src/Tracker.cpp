@@ -1,0 +1,523 @@
+#include "pslam/tracking/Tracker.h"
+
+#include <algorithm>
+#include <optional>
+#include <set>
+
+#include "pslam/core/Error.h"
+
+namespace pslam::tracking {
+
+// ---------------------------------------------------------------- parameters
+void TrackerParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& s) {
+  motionModelRadius = cfg.read_float(s, "motionModelRadius", motionModelRadius);
+  minMotionMatches = cfg.read_int(s, "minMotionMatches", minMotionMatches);
+  minReferenceMatches = cfg.read_int(s, "minReferenceMatches", minReferenceMatches);
+  referenceRatio = cfg.read_float(s, "referenceRatio", referenceRatio);
+  referenceMaxDistance = cfg.read_int(s, "referenceMaxDistance", referenceMaxDistance);
+  minPoseInliers = cfg.read_int(s, "minPoseInliers", minPoseInliers);
+  localMapRadius = cfg.read_float(s, "localMapRadius", localMapRadius);
+  localMapRatio = cfg.read_float(s, "localMapRatio", localMapRatio);
+  maxLocalKeyFrames = cfg.read_int(s, "maxLocalKeyframes", maxLocalKeyFrames);
+  minLocalMapInliers = cfg.read_int(s, "minLocalMapInliers", minLocalMapInliers);
+  minInliersAfterReloc = cfg.read_int(s, "minInliersAfterReloc", minInliersAfterReloc);
+  relocalizationCandidates = cfg.read_int(s, "relocalizationCandidates", relocalizationCandidates);
+  resetKeyFrames = cfg.read_int(s, "resetKeyframes", resetKeyFrames);
+  keyFrames.minFrames = cfg.read_int(s, "keyframeMinFrames", keyFrames.minFrames);
+  keyFrames.maxFrames = cfg.read_int(s, "keyframeMaxFrames", keyFrames.maxFrames);
+  keyFrames.refRatio = cfg.read_double(s, "keyframeRefRatio", keyFrames.refRatio);
+  keyFrames.minInliers = cfg.read_int(s, "keyframeMinInliers", keyFrames.minInliers);
+  pnp.loadFromConfigFile(cfg, s);
+}
+
+void TrackerParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& s) const {
+  cfg.write(s, "motionModelRadius", motionModelRadius);
+  cfg.write(s, "minMotionMatches", minMotionMatches);
+  cfg.write(s, "minReferenceMatches", minReferenceMatches);
+  cfg.write(s, "referenceRatio", referenceRatio);
+  cfg.write(s, "referenceMaxDistance", referenceMaxDistance);
+  cfg.write(s, "minPoseInliers", minPoseInliers);
+  cfg.write(s, "localMapRadius", localMapRadius);
+  cfg.write(s, "localMapRatio", localMapRatio);
+  cfg.write(s, "maxLocalKeyframes", maxLocalKeyFrames);
+  cfg.write(s, "minLocalMapInliers", minLocalMapInliers);
+  cfg.write(s, "minInliersAfterReloc", minInliersAfterReloc);
+  cfg.write(s, "relocalizationCandidates", relocalizationCandidates);
+  cfg.write(s, "resetKeyframes", resetKeyFrames);
+  cfg.write(s, "keyframeMinFrames", keyFrames.minFrames);
+  cfg.write(s, "keyframeMaxFrames", keyFrames.maxFrames);
+  cfg.write(s, "keyframeRefRatio", keyFrames.refRatio);
+  cfg.write(s, "keyframeMinInliers", keyFrames.minInliers);
+  pnp.saveToConfigFile(cfg, s);
+}
+
+void TrackerParams::check() const {
+  const std::string s = "[Tracking] ";
+  require(motionModelRadius > 0, s + "motionModelRadius", "must be > 0");
+  require(minMotionMatches >= 1, s + "minMotionMatches", "must be >= 1");
+  require(minReferenceMatches >= 4, s + "minReferenceMatches", "must be >= 4");
+  require(referenceRatio > 0 && referenceRatio <= 1, s + "referenceRatio", "must be in (0, 1]");
+  require(referenceMaxDistance >= 0 && referenceMaxDistance <= 256, s + "referenceMaxDistance", "must be in [0, 256]");
+  require(minPoseInliers >= 3, s + "minPoseInliers", "must be >= 3");
+  require(localMapRadius > 0, s + "localMapRadius", "must be > 0");
+  require(localMapRatio > 0 && localMapRatio <= 1, s + "localMapRatio", "must be in (0, 1]");
+  require(maxLocalKeyFrames >= 1, s + "maxLocalKeyframes", "must be >= 1");
+  require(minLocalMapInliers >= 3, s + "minLocalMapInliers", "must be >= 3");
+  require(minInliersAfterReloc >= minLocalMapInliers, s + "minInliersAfterReloc", "must be >= minLocalMapInliers");
+  require(relocalizationCandidates >= 1, s + "relocalizationCandidates", "must be >= 1");
+  require(resetKeyFrames >= 2, s + "resetKeyframes", "must be >= 2");
+  require(keyFrames.minFrames >= 0, s + "keyframeMinFrames", "must be >= 0");
+  require(keyFrames.maxFrames >= keyFrames.minFrames && keyFrames.maxFrames >= 1, s + "keyframeMaxFrames",
+          "must be >= max(1, keyframeMinFrames)");
+  require(keyFrames.refRatio > 0 && keyFrames.refRatio <= 1, s + "keyframeRefRatio", "must be in (0, 1]");
+  require(keyFrames.minInliers >= 0, s + "keyframeMinInliers", "must be >= 0");
+  pnp.check();
+}
+
+const char* toString(FrameStatus status) {
+  switch (status) {
+    case FrameStatus::Initializing: return "initializing";
+    case FrameStatus::Tracking: return "tracking";
+    case FrameStatus::Lost: return "lost";
+    case FrameStatus::Relocalized: return "relocalized";
+  }
+  return "?";
+}
+
+nlohmann::json FrameReport::toJson() const {
+  return {{"index", index},       {"timestamp", timestamp}, {"status", toString(status)},
+          {"method", method},     {"features", features},   {"matches", matches},
+          {"inliers", inliers},   {"local_map_points", localMapPoints}, {"keyframe", keyFrame},
+          {"map_points", mapPoints}, {"keyframes", keyFrames}, {"message", message}};
+}
+
+// ---------------------------------------------------------------- tracker
+Tracker::Tracker(map::Map& map, const geometry::PinholeCamera& camera, TrackerParams params,
+                 InitializerParams initParams, optimize::BundleAdjustmentParams baParams,
+                 std::unique_ptr<PoseSolver> solver, std::uint32_t seed)
+    : map_(map),
+      camera_(camera),
+      params_(params),
+      initializer_(camera, initParams, baParams),
+      solver_(solver ? std::move(solver) : std::make_unique<FullPoseSolver>()),
+      rng_(seed) {
+  params_.check();
+}
+
+void Tracker::reset() {
+  map_ = map::Map();
+  initializer_.reset();
+  initialized_ = false;
+  lost_ = false;
+  haveVelocity_ = false;
+  referenceKeyFrame_ = map::kNoKeyFrame;
+  relocalizedEver_ = false;
+  localKeyFrames_.clear();
+  last_ = Frame();
+}
+
+int Tracker::optimizeFramePose(Frame& frame) {
+  std::vector<optimize::PoseObservation> obs;
+  std::vector<std::size_t> keypointOf;
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    const map::MapPointId id = frame.mapPointIds[i];
+    if (id == map::kNoMapPoint) continue;
+    if (!map_.hasMapPoint(id) || map_.mapPoint(id).bad) {
+      frame.mapPointIds[i] = map::kNoMapPoint;
+      continue;
+    }
+    optimize::PoseObservation o;
+    o.p_world = map_.worldPosition(id);
+    o.pixel = frame.pixel(i);
+    o.invSigma2 = 1.0 / frame.levelSigma2[frame.keypoints[i].octave];
+    obs.push_back(o);
+    keypointOf.push_back(i);
+  }
+  if (obs.size() < 3) return 0;
+  std::optional<ScopedStage> stage;
+  if (timings_) stage.emplace(*timings_, "pose_optimization");
+  const optimize::PoseOptimizationResult r = solver_->solve(frame.T_cam_world, frame.camera, obs, {});
+  frame.T_cam_world = r.T_cam_world;
+  frame.hasPose = true;
+  int inliers = 0;
+  for (std::size_t k = 0; k < obs.size(); ++k) {
+    const std::size_t i = keypointOf[k];
+    if (r.outlier[k]) {
+      // ORB-SLAM discards outlier matches after pose optimization.
+      frame.mapPointIds[i] = map::kNoMapPoint;
+      frame.outlier[i] = false;
+    } else {
+      frame.outlier[i] = false;
+      ++inliers;
+    }
+  }
+  return inliers;
+}
+
+bool Tracker::trackWithMotionModel(Frame& frame) {
+  frame.resetMatches();
+  frame.T_cam_world = velocity_ * last_.T_cam_world;
+  std::vector<ProjectionCandidate> cands;
+  for (std::size_t i = 0; i < last_.size(); ++i) {
+    const map::MapPointId id = last_.mapPointIds[i];
+    if (id == map::kNoMapPoint || last_.outlier[i] || !map_.hasMapPoint(id) || map_.mapPoint(id).bad) continue;
+    const map::MapPoint& p = map_.mapPoint(id);
+    ProjectionCandidate c;
+    c.id = id;
+    c.p_world = map_.worldPosition(id);
+    c.descriptor = p.descriptor;
+    const int oct = last_.keypoints[i].octave;
+    c.predictedLevel = oct;
+    c.minLevel = std::max(0, oct - 1);
+    c.maxLevel = oct + 1;
+    c.referenceAngle = last_.keypoints[i].angle;
+    cands.push_back(c);
+  }
+  ProjectionSearchParams sp;
+  auto search = [&](float th) {
+    for (auto& c : cands) c.radius = th * static_cast<float>(frame.scaleFactors[std::min<int>(c.predictedLevel, frame.numLevels() - 1)]);
+    return searchByProjection(frame, frame.T_cam_world, cands, sp);
+  };
+  int n = search(params_.motionModelRadius);
+  if (n < params_.minMotionMatches) {
+    frame.resetMatches();
+    n = search(2 * params_.motionModelRadius);
+  }
+  if (n < params_.minMotionMatches) return false;
+  return optimizeFramePose(frame) >= params_.minPoseInliers;
+}
+
+bool Tracker::trackReferenceKeyFrame(Frame& frame) {
+  frame.resetMatches();
+  if (!map_.hasKeyFrame(referenceKeyFrame_)) return false;
+  const map::KeyFrame& kf = map_.keyFrame(referenceKeyFrame_);
+  // Descriptor matching of the keyframe's map points against all frame keypoints (stands in for ORB-SLAM's
+  // bag-of-words SearchByBoW: same TH_LOW and ratio, exhaustive instead of vocabulary-node restricted).
+  std::vector<int> rows;
+  for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
+    if (kf.mapPointIds[i] != map::kNoMapPoint && !map_.mapPoint(kf.mapPointIds[i]).bad) rows.push_back(static_cast<int>(i));
+  if (static_cast<int>(rows.size()) < params_.minReferenceMatches) return false;
+  cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
+  for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
+  features::BruteForceParams bp;
+  bp.ratio = params_.referenceRatio;
+  bp.maxDistance = params_.referenceMaxDistance;
+  bp.crossCheck = true;
+  const auto matches = features::matchBruteForce(query, frame.descriptors, bp);
+  for (const auto& m : matches) frame.mapPointIds[m.i2] = kf.mapPointIds[rows[m.i1]];
+  if (static_cast<int>(matches.size()) < params_.minReferenceMatches) return false;
+  frame.T_cam_world = last_.hasPose ? last_.T_cam_world : kf.T_cam_world;
+  return optimizeFramePose(frame) >= params_.minPoseInliers;
+}
+
+void Tracker::updateLocalKeyFrames(const Frame& frame) {
+  std::map<map::KeyFrameId, int> counter;
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    const map::MapPointId id = frame.mapPointIds[i];
+    if (id == map::kNoMapPoint || !map_.hasMapPoint(id)) continue;
+    for (const auto& [kf, k] : map_.mapPoint(id).observations) ++counter[kf];
+  }
+  localKeyFrames_.clear();
+  if (counter.empty()) return;
+  std::set<map::KeyFrameId> inLocal;
+  int best = -1;
+  for (const auto& [kf, n] : counter) {
+    localKeyFrames_.push_back(kf);
+    inLocal.insert(kf);
+    if (n > best) {
+      best = n;
+      referenceKeyFrame_ = kf;
+    }
+  }
+  // Neighbours of the local keyframes (ORB-SLAM: 10 best covisible, children and parent).
+  const std::vector<map::KeyFrameId> first = localKeyFrames_;
+  for (map::KeyFrameId kf : first) {
+    if (static_cast<int>(localKeyFrames_.size()) >= params_.maxLocalKeyFrames) break;
+    for (map::KeyFrameId n : map_.bestCovisibleKeyFrames(kf, 10))
+      if (inLocal.insert(n).second) localKeyFrames_.push_back(n);
+    const map::KeyFrame& k = map_.keyFrame(kf);
+    for (map::KeyFrameId c : k.children)
+      if (inLocal.insert(c).second) localKeyFrames_.push_back(c);
+    if (k.parent != map::kNoKeyFrame && inLocal.insert(k.parent).second) localKeyFrames_.push_back(k.parent);
+  }
+}
+
+int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
+  updateLocalKeyFrames(frame);
+  std::set<map::MapPointId> matched;
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    const map::MapPointId id = frame.mapPointIds[i];
+    if (id == map::kNoMapPoint) continue;
+    matched.insert(id);
+    if (map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).visibleCount;
+  }
+  std::set<map::MapPointId> localPoints;
+  for (map::KeyFrameId kf : localKeyFrames_)
+    for (map::MapPointId p : map_.pointsOf(kf))
+      if (!matched.count(p)) localPoints.insert(p);
+  const Eigen::Vector3d centre = frame.cameraCenter();
+  const float th = (relocalizedEver_ && frame.index < lastRelocFrame_ + 2) ? 5.f * params_.localMapRadius
+                                                                            : params_.localMapRadius;
+  std::vector<ProjectionCandidate> cands;
+  for (map::MapPointId id : localPoints) {
+    map::MapPoint& p = map_.mutableMapPoint(id);
+    if (p.bad) continue;
+    // ORB-SLAM Frame::isInFrustum: in front, inside the image, within the scale-invariance distances, and
+    // seen at less than 60 degrees from its mean viewing direction.
+    const Eigen::Vector3d pw = map_.worldPosition(id);
+    const Eigen::Vector3d pc = frame.T_cam_world * pw;
+    if (pc.z() <= 0) continue;
+    const Eigen::Vector2d uv = frame.camera.project(pc);
+    if (!frame.bounds.contains(uv.x(), uv.y())) continue;
+    const Eigen::Vector3d po = pw - centre;
+    const double dist = po.norm();
+    if (dist < 0.8 * p.minDistance || dist > 1.2 * p.maxDistance) continue;
+    const double viewCos = p.normal.norm() > 0 ? po.dot(p.normal) / dist : 1.0;
+    if (viewCos < 0.5) continue;
+    ++p.visibleCount;
+    ProjectionCandidate c;
+    c.id = id;
+    c.p_world = pw;
+    c.descriptor = p.descriptor;
+    c.predictedLevel = predictLevel(dist, p.maxDistance, frame.numLevels() > 1 ? frame.scaleFactors[1] : 1.2,
+                                    frame.numLevels());
+    c.minLevel = std::max(0, c.predictedLevel - 1);
+    c.maxLevel = c.predictedLevel;
+    c.radius = th * radiusByViewingCos(viewCos) * static_cast<float>(frame.scaleFactors[c.predictedLevel]);
+    cands.push_back(c);
+  }
+  if (localCandidates) *localCandidates = static_cast<int>(cands.size());
+  ProjectionSearchParams sp;
+  sp.ratio = params_.localMapRatio;
+  sp.checkOrientation = false;  // ORB-SLAM's local-map search has no rotation check
+  searchByProjection(frame, frame.T_cam_world, cands, sp);
+  const int inliers = optimizeFramePose(frame);
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    const map::MapPointId id = frame.mapPointIds[i];
+    if (id != map::kNoMapPoint && map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).foundCount;
+  }
+  return inliers;
+}
+
+bool Tracker::relocalize(Frame& frame) {
+  // Candidate keyframes ranked by exhaustive descriptor matches against their points (ORB-SLAM ranks by
+  // bag-of-words similarity; without a vocabulary the match count is the similarity).
+  struct Cand {
+    map::KeyFrameId kf;
+    std::vector<std::pair<std::size_t, map::MapPointId>> matches;  // frame keypoint -> point
+  };
+  std::vector<Cand> cands;
+  features::BruteForceParams bp;
+  bp.ratio = 0.75f;
+  bp.maxDistance = features::kOrbThHigh;
+  for (const auto& [kfId, kf] : map_.keyFrames()) {
+    std::vector<int> rows;
+    for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
+      if (kf.mapPointIds[i] != map::kNoMapPoint && !map_.mapPoint(kf.mapPointIds[i]).bad)
+        rows.push_back(static_cast<int>(i));
+    if (static_cast<int>(rows.size()) < params_.minReferenceMatches) continue;
+    cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
+    for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
+    Cand c{kfId, {}};
+    for (const auto& m : features::matchBruteForce(query, frame.descriptors, bp))
+      c.matches.emplace_back(static_cast<std::size_t>(m.i2), kf.mapPointIds[rows[m.i1]]);
+    if (static_cast<int>(c.matches.size()) >= params_.minReferenceMatches) cands.push_back(std::move(c));
+  }
+  std::stable_sort(cands.begin(), cands.end(),
+                   [](const Cand& a, const Cand& b) { return a.matches.size() > b.matches.size(); });
+  if (static_cast<int>(cands.size()) > params_.relocalizationCandidates) cands.resize(params_.relocalizationCandidates);
+
+  for (const Cand& c : cands) {
+    std::vector<Eigen::Vector3d> pts;
+    std::vector<Eigen::Vector2d> pixels;
+    for (const auto& [k, p] : c.matches) {
+      pts.push_back(map_.worldPosition(p));
+      pixels.push_back(frame.pixel(k));
+    }
+    const geometry::PnpResult pnp = geometry::solvePnpRansac(camera_, pts, pixels, params_.pnp);
+    if (!pnp.success) continue;
+    frame.resetMatches();
+    for (std::size_t m = 0; m < c.matches.size(); ++m)
+      if (pnp.inliers[m]) frame.mapPointIds[c.matches[m].first] = c.matches[m].second;
+    frame.T_cam_world = Eigen::Isometry3d::Identity();
+    frame.T_cam_world.linear() = pnp.R_cam_world;
+    frame.T_cam_world.translation() = pnp.t_cam_world;
+    int inliers = optimizeFramePose(frame);
+    if (inliers < params_.minPoseInliers) continue;
+    if (inliers < params_.minInliersAfterReloc) {
+      // Project the candidate keyframe's other points with a wide window and optimize again.
+      std::set<map::MapPointId> have(frame.mapPointIds.begin(), frame.mapPointIds.end());
+      std::vector<ProjectionCandidate> pc;
+      for (map::MapPointId id : map_.pointsOf(c.kf)) {
+        if (have.count(id) || map_.mapPoint(id).bad) continue;
+        const map::MapPoint& p = map_.mapPoint(id);
+        const Eigen::Vector3d pw = map_.worldPosition(id);
+        const double dist = (pw - frame.cameraCenter()).norm();
+        ProjectionCandidate cand;
+        cand.id = id;
+        cand.p_world = pw;
+        cand.descriptor = p.descriptor;
+        cand.predictedLevel = predictLevel(dist, p.maxDistance, frame.numLevels() > 1 ? frame.scaleFactors[1] : 1.2,
+                                           frame.numLevels());
+        cand.minLevel = std::max(0, cand.predictedLevel - 1);
+        cand.maxLevel = cand.predictedLevel + 1;
+        cand.radius = 10.f * static_cast<float>(frame.scaleFactors[cand.predictedLevel]);
+        pc.push_back(cand);
+      }
+      ProjectionSearchParams sp;
+      sp.checkOrientation = false;
+      searchByProjection(frame, frame.T_cam_world, pc, sp);
+      inliers = optimizeFramePose(frame);
+    }
+    if (inliers >= params_.minInliersAfterReloc) {
+      referenceKeyFrame_ = c.kf;
+      return true;
+    }
+  }
+  frame.resetMatches();
+  return false;
+}
+
+map::KeyFrameId Tracker::createKeyFrame(const Frame& frame) {
+  const map::KeyFrameId id = map_.addKeyFrame(toKeyFrame(frame));
+  std::vector<map::MapPointId> touched;
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    const map::MapPointId p = frame.mapPointIds[i];
+    if (p == map::kNoMapPoint || frame.outlier[i] || !map_.hasMapPoint(p) || map_.mapPoint(p).bad) continue;
+    if (map_.addObservation(p, id, i)) touched.push_back(p);
+  }
+  for (map::MapPointId p : touched) {
+    map_.computeDistinctiveDescriptor(p);
+    map_.updateNormalAndDepth(p);
+  }
+  map_.connectToSpanningTree(id);
+  referenceKeyFrame_ = id;
+  lastKeyFrameFrame_ = frame.index;
+  return id;
+}
+
+Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
+  Result res;
+  timings_ = &timings;
+  FrameReport& rep = res.report;
+  rep.index = frame.index;
+  rep.timestamp = frame.timestamp;
+  rep.features = static_cast<int>(frame.size());
+  frame.resetMatches();
+
+  if (!initialized_) {
+    rep.status = FrameStatus::Initializing;
+    rep.method = "initializer";
+    InitializationOutcome init;
+    Frame reference;
+    {
+      ScopedStage st(timings, "initialization");
+      init = initializer_.process(frame, map_, rng_, &reference);
+    }
+    rep.matches = init.matches;
+    rep.message = init.message;
+    if (init.initialized) {
+      initialized_ = true;
+      lost_ = false;
+      rep.status = FrameStatus::Tracking;
+      rep.inliers = frame.numMatchedInliers();
+      rep.keyFrame = true;
+      res.newKeyFrames = {init.kf1, init.kf2};
+      res.initialReferencePose = std::make_pair(reference.timestamp, reference.T_cam_world);
+      referenceKeyFrame_ = init.kf2;
+      lastKeyFrameFrame_ = frame.index;
+      // Velocity of the two-view motion spread over the frames between reference and current.
+      haveVelocity_ = false;
+      res.hasPose = true;
+      res.T_cam_world = frame.T_cam_world;
+      res.referenceKeyFrame = referenceKeyFrame_;
+      last_ = frame;
+    }
+    rep.mapPoints = map_.numMapPoints();
+    rep.keyFrames = map_.numKeyFrames();
+    return res;
+  }
+
+  bool ok = false;
+  bool relocalized = false;
+  {
+    ScopedStage st(timings, "matching");
+    if (!lost_) {
+      if (haveVelocity_) {
+        ok = trackWithMotionModel(frame);
+        rep.method = "motion";
+      }
+      if (!ok) {
+        ok = trackReferenceKeyFrame(frame);
+        rep.method = "reference";
+      }
+    }
+  }
+  if (!ok) {
+    ScopedStage st(timings, "relocalization");
+    ok = relocalize(frame);
+    rep.method = "relocalization";
+    if (ok) {
+      relocalized = true;
+      relocalizedEver_ = true;
+      lastRelocFrame_ = frame.index;
+    }
+  }
+  rep.matches = frame.numMatchedInliers();
+
+  if (ok) {
+    ScopedStage st(timings, "local_map");
+    int cands = 0;
+    const int inliers = trackLocalMap(frame, &cands);
+    rep.inliers = inliers;
+    rep.localMapPoints = cands;
+    const bool recentReloc = relocalizedEver_ && frame.index < lastRelocFrame_ + static_cast<std::size_t>(params_.keyFrames.maxFrames);
+    ok = inliers >= (recentReloc ? params_.minInliersAfterReloc : params_.minLocalMapInliers);
+  }
+
+  if (!ok) {
+    rep.status = FrameStatus::Lost;
+    haveVelocity_ = false;
+    lost_ = true;
+    if (map_.numKeyFrames() <= static_cast<std::size_t>(params_.resetKeyFrames)) {
+      // ORB-SLAM: a map this young is not worth relocalizing into; start over.
+      rep.message = "lost with " + std::to_string(map_.numKeyFrames()) + " keyframes: map reset";
+      reset();
+      res.mapWasReset = true;
+    }
+    rep.mapPoints = map_.numMapPoints();
+    rep.keyFrames = map_.numKeyFrames();
+    return res;
+  }
+
+  lost_ = false;
+  rep.status = relocalized ? FrameStatus::Relocalized : FrameStatus::Tracking;
+  if (last_.hasPose && !relocalized) {
+    velocity_ = frame.T_cam_world * last_.T_cam_world.inverse();
+    haveVelocity_ = true;
+  }
+
+  KeyFrameDecisionInput kin;
+  kin.frameIndex = frame.index;
+  kin.lastKeyFrameFrame = lastKeyFrameFrame_;
+  kin.lastRelocFrame = lastRelocFrame_;
+  kin.relocalizedEver = relocalizedEver_;
+  kin.numKeyFrames = map_.numKeyFrames();
+  kin.referenceTrackedPoints =
+      map_.hasKeyFrame(referenceKeyFrame_) ? map_.trackedMapPoints(referenceKeyFrame_, kin.numKeyFrames <= 2 ? 2 : 3) : 0;
+  kin.trackedInliers = rep.inliers;
+  kin.localMappingIdle = localMappingIdle_;
+  if (needNewKeyFrame(kin, params_.keyFrames)) {
+    res.newKeyFrames.push_back(createKeyFrame(frame));
+    rep.keyFrame = true;
+  }
+  res.hasPose = true;
+  res.T_cam_world = frame.T_cam_world;
+  res.referenceKeyFrame = referenceKeyFrame_;
+  rep.mapPoints = map_.numMapPoints();
+  rep.keyFrames = map_.numKeyFrames();
+  last_ = std::move(frame);
+  return res;
+}
+
+}  // namespace pslam::tracking

@@ -1,0 +1,70 @@
+// ORB-SLAM's monocular keyframe decision, case by case.
+#include <gtest/gtest.h>
+
+#include "pslam/tracking/KeyFrameDecision.h"
+
+using pslam::tracking::KeyFrameDecisionInput;
+using pslam::tracking::KeyFrameDecisionParams;
+using pslam::tracking::needNewKeyFrame;
+
+namespace {
+KeyFrameDecisionInput base() {
+  KeyFrameDecisionInput in;
+  in.frameIndex = 100;
+  in.lastKeyFrameFrame = 95;
+  in.numKeyFrames = 10;
+  in.referenceTrackedPoints = 200;
+  in.trackedInliers = 150;  // < 0.9 * 200
+  in.localMappingIdle = true;
+  return in;
+}
+}  // namespace
+
+TEST(KeyFrameDecision, InsertsWhenTrackingWeakensAndMappingIsIdle) {
+  KeyFrameDecisionParams p;
+  EXPECT_TRUE(needNewKeyFrame(base(), p));
+}
+
+TEST(KeyFrameDecision, NotWhileStillTrackingNinetyPercentOfTheReference) {
+  KeyFrameDecisionParams p;
+  auto in = base();
+  in.trackedInliers = 180;  // = 0.9 * 200: not below
+  EXPECT_FALSE(needNewKeyFrame(in, p));
+  in.trackedInliers = 179;
+  EXPECT_TRUE(needNewKeyFrame(in, p));
+}
+
+TEST(KeyFrameDecision, NotWithTooFewInliers) {
+  KeyFrameDecisionParams p;
+  auto in = base();
+  in.trackedInliers = 15;
+  EXPECT_FALSE(needNewKeyFrame(in, p));
+  in.trackedInliers = 16;
+  EXPECT_TRUE(needNewKeyFrame(in, p));
+}
+
+TEST(KeyFrameDecision, BusyMappingWaitsUntilMaxFrames) {
+  KeyFrameDecisionParams p;
+  p.maxFrames = 10;
+  auto in = base();
+  in.localMappingIdle = false;
+  EXPECT_FALSE(needNewKeyFrame(in, p));  // 5 frames since the last keyframe
+  in.frameIndex = 105;
+  EXPECT_TRUE(needNewKeyFrame(in, p));   // c1a: maxFrames passed
+}
+
+TEST(KeyFrameDecision, MinFramesAndRelocalizationBlock) {
+  KeyFrameDecisionParams p;
+  p.minFrames = 8;
+  p.maxFrames = 30;
+  auto in = base();
+  EXPECT_FALSE(needNewKeyFrame(in, p));  // only 5 frames since the last keyframe
+  in.frameIndex = 103;
+  EXPECT_TRUE(needNewKeyFrame(in, p));
+  in.relocalizedEver = true;
+  in.lastRelocFrame = 90;
+  in.numKeyFrames = 40;                  // map larger than maxFrames keyframes
+  EXPECT_FALSE(needNewKeyFrame(in, p));  // within maxFrames of the relocalization
+  in.numKeyFrames = 20;
+  EXPECT_TRUE(needNewKeyFrame(in, p));
+}
