@@ -32,7 +32,7 @@ void DirectSelectorParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, 
 void DirectSelectorParams::check() const {
   const std::string ctx = "DirectSelectorParams";
   require(targetPoints > 0, ctx, "targetPoints must be > 0");
-  require(initialBlockSize >= 1, ctx, "initialBlockSize must be >= 1");
+  require(initialBlockSize >= 0, ctx, "initialBlockSize must be >= 0 (0 = automatic)");
   require(std::isfinite(thresholdOffset) && thresholdOffset >= 0, ctx, "thresholdOffset must be finite and >= 0");
   require(thresholdDecay > 0 && thresholdDecay <= 1, ctx, "thresholdDecay must be in (0, 1]");
   require(adaptIterations >= 0, ctx, "adaptIterations must be >= 0");
@@ -137,7 +137,10 @@ std::vector<DirectPoint> DirectPointSelector::select(const cv::Mat& image, int t
 
   // The count scales with 1/W^2 where blocks are textured: rescale W by sqrt(found/target) until within 15 %,
   // then keep the block size whose count comes closest (W is an integer, so the target is met only roughly).
-  int W = std::max(2, params_.initialBlockSize);
+  const double usableArea = std::max(1.0, double(grey.cols - 2 * params_.border) * (grey.rows - 2 * params_.border));
+  int W = params_.initialBlockSize > 0 ? params_.initialBlockSize
+                                       : static_cast<int>(std::lround(std::sqrt(usableArea / targetPoints)));
+  W = std::max(2, W);
   std::vector<DirectPoint> points = selectWithBlockSize(grad, integral, W);
   auto offBy = [&](size_t n) { return std::abs(static_cast<double>(n) - targetPoints); };
   std::vector<int> tried{W};

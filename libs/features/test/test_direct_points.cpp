@@ -61,9 +61,10 @@ TEST(DirectPoints, LevelZeroPointsAreBlockMaximaAboveTheBlockThreshold) {
 
 TEST(DirectPoints, CountApproachesTargetWithTheClosestBlockSize) {
   const cv::Mat img = texturedImage(640, 480, 13);
-  for (int target : {1000, 3000}) {
+  for (int target : {1000, 3000, 8000}) {
     DirectSelectorParams p;
     p.targetPoints = target;
+    p.initialBlockSize = target == 8000 ? 9 : 0;  // explicit start far from the answer: adaptation must recover
     DirectPointSelector sel(p);
     const auto pts = sel.select(img);
     const int W = sel.lastBlockSize();
@@ -104,6 +105,9 @@ TEST(DirectPoints, DeterministicAndRejectsBadInput) {
   EXPECT_THROW(sel.select(cv::Mat()), pslam::Error);
   EXPECT_THROW(sel.select(cv::Mat(10, 10, CV_32FC1, cv::Scalar(0))), pslam::Error);
   DirectSelectorParams bad;
+  bad.initialBlockSize = -1;
+  EXPECT_THROW(DirectPointSelector{bad}, pslam::Error);
+  bad = DirectSelectorParams();
   bad.thresholdDecay = 0;
   EXPECT_THROW(DirectPointSelector{bad}, pslam::Error);
   mrpt::config::CConfigFileMemory cfg;

@@ -15,7 +15,9 @@ namespace pslam::features {
 
 struct DirectSelectorParams {
   int targetPoints = 2000;       ///< wanted number of points (N_F^Direct; Table 3.2 uses 5000)
-  int initialBlockSize = 4;      ///< W of Algorithm 3 for the first attempt (>= 2); adapted to reach targetPoints
+  /// W of Algorithm 3 for the first attempt; adapted to reach targetPoints. 0 = automatic: sqrt(area / target),
+  /// the size at which one point per block gives the target (textured images fill nearly every block).
+  int initialBlockSize = 0;
   float thresholdOffset = 7.f;   ///< delta_W: gradient (grey levels/px) above the block mean needed at size W
   float thresholdDecay = 0.75f;  ///< delta_2W = decay * delta_W, delta_4W = decay^2 * delta_W
   int adaptIterations = 3;       ///< re-runs with W rescaled by sqrt(found/target) while off by > 15 %; the
