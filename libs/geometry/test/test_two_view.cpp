@@ -13,11 +13,15 @@ using namespace pslam::geometry::test;
 
 namespace {
 
-// A sideways-forward motion with a few degrees of rotation: about 4-7 deg of parallax at 4-8 m.
+// A sideways-forward motion with a few degrees of rotation: about 5 deg of parallax at 4-8 m.
 const Eigen::Matrix3d kR = rotationFromAxisAngle({0.2, 1.0, 0.1}, 4.0);
 const Eigen::Vector3d kT(0.5, 0.08, 0.1);
-// Planar scenes: mostly sideways motion (see PlanarSceneSelectsHomographyAndRecoversMotion).
-const Eigen::Vector3d kTPlanar(0.6, 0.0, 0.05);
+// The accuracy tests use twice that baseline (about 10 deg of parallax). At 5 deg the translation
+// direction is statistically limited to about 1 deg at 0.8 px noise (mean 0.99, max 2.5 deg over 20
+// scenes; bench_two_view_accuracy 20 1 0.8), at 10 deg the mean is 0.32 and the max 0.60 deg.
+const Eigen::Vector3d kTWide = 2.0 * kT;
+// Planar scenes: mostly sideways motion.
+const Eigen::Vector3d kTPlanar(1.2, 0.0, 0.1);
 
 std::vector<Eigen::Vector2d> toEigen(const std::vector<cv::Point2f>& p) {
   std::vector<Eigen::Vector2d> out;
@@ -52,30 +56,41 @@ Accuracy accuracyOf(const TwoViewScene& s, const TwoViewResult& r) {
 }  // namespace
 
 TEST(TwoViewInitializer, GeneralSceneSelectsFundamentalAndRecoversMotion) {
-  for (unsigned seed : {1u, 2u, 3u}) {
-    const TwoViewScene s = makeScene(SceneShape::General, kR, kT, 400, 0.8, 0.2, seed);
-    TwoViewInitializer init(testCamera());
-    std::mt19937 rng(seed);
-    const TwoViewResult r = init.initialize(s.pixels_ref, s.pixels_cur, rng);
-    ASSERT_TRUE(r.success) << "seed " << seed << ": " << toString(r.failure) << ": " << r.message;
-    EXPECT_EQ(r.model, TwoViewModel::Fundamental) << r.message;
-    EXPECT_LT(r.ratioH, 0.40) << r.message;
-    const Accuracy a = accuracyOf(s, r);
-    EXPECT_LT(a.rotDeg, 0.5) << r.message;
-    EXPECT_LT(a.dirDeg, 1.0) << r.message;
-    EXPECT_NEAR(r.t_cur_ref.norm(), 1.0, 1e-9);
-    EXPECT_LT(a.pointRelError, 0.05);
-    // A random pixel that happens to fall within ~2 px of its epipolar line is consistent with two-view
-    // geometry and cannot be rejected; that happens to ~1 % of uniformly random pixels here.
-    EXPECT_LE(a.triangulatedOutliers, 0.05 * a.outliers) << "random outlier pixels must not become map points";
-    EXPECT_GE(r.numTriangulated, 250);
-    std::cout << "[ general seed " << seed << " ] rot " << a.rotDeg << " deg, dir " << a.dirDeg
-              << " deg, median point error " << 100 * a.pointRelError << " %, " << r.message << "\n";
+  // At 0.5 px every scene meets the bounds; at 1 px the translation direction meets 1 deg on average
+  // (single scenes reach ~1.1 deg at 0.8 px: the statistical limit of this geometry, not a bias).
+  for (const double noisePx : {0.5, 1.0}) {
+    double dirSum = 0.0;
+    const int numScenes = 8;
+    for (int seed = 1; seed <= numScenes; ++seed) {
+      const TwoViewScene s = makeScene(SceneShape::General, kR, kTWide, 400, noisePx, 0.2, static_cast<unsigned>(seed));
+      TwoViewInitializer init(testCamera());
+      std::mt19937 rng(static_cast<unsigned>(seed));
+      const TwoViewResult r = init.initialize(s.pixels_ref, s.pixels_cur, rng);
+      ASSERT_TRUE(r.success) << "seed " << seed << ": " << toString(r.failure) << ": " << r.message;
+      EXPECT_EQ(r.model, TwoViewModel::Fundamental) << r.message;
+      EXPECT_LT(r.ratioH, 0.40) << r.message;
+      const Accuracy a = accuracyOf(s, r);
+      EXPECT_LT(a.rotDeg, 0.5) << r.message;
+      EXPECT_LT(a.dirDeg, noisePx <= 0.5 ? 1.0 : 2.0) << r.message;
+      dirSum += a.dirDeg;
+      EXPECT_NEAR(r.t_cur_ref.norm(), 1.0, 1e-9);
+      // First-order depth error Z^2 / (f b) * sqrt(2) sigma is ~1.6 % per pixel of noise at 6 m; the pose
+      // error adds to it.
+      EXPECT_LT(a.pointRelError, 0.06 * noisePx);
+      // A random pixel that happens to fall within ~2 px of its epipolar line is consistent with two-view
+      // geometry and cannot be rejected; that happens to ~1 % of uniformly random pixels here.
+      EXPECT_LE(a.triangulatedOutliers, 0.05 * a.outliers) << "random outlier pixels must not become map points";
+      // The chi^2 tests assume sigma = 1 px: most true matches survive them.
+      EXPECT_GE(r.numTriangulated, 0.6 * (400 - a.outliers));
+      std::cout << "[ general noise " << noisePx << " seed " << seed << " ] rot " << a.rotDeg << " deg, dir "
+                << a.dirDeg << " deg, median point error " << 100 * a.pointRelError << " %, " << r.message << "\n";
+    }
+    EXPECT_LT(dirSum / numScenes, 1.0) << "mean translation direction error at " << noisePx << " px";
   }
 }
 
 TEST(TwoViewInitializer, PlanarSceneSelectsHomographyAndRecoversMotion) {
-  for (unsigned seed : {4u, 5u, 6u}) {
+  for (unsigned seed = 1; seed <= 8; ++seed) {
     const TwoViewScene s = makeScene(SceneShape::Planar, kR, kTPlanar, 400, 0.8, 0.2, seed);
     TwoViewInitializer init(testCamera());
     std::mt19937 rng(seed);
@@ -85,8 +100,8 @@ TEST(TwoViewInitializer, PlanarSceneSelectsHomographyAndRecoversMotion) {
     EXPECT_GT(r.ratioH, 0.40);
     const Accuracy a = accuracyOf(s, r);
     EXPECT_LT(a.rotDeg, 0.5) << r.message;
-    // A plane constrains the translation direction less than a 3-D scene: over seeds 4..13 the error of
-    // the refitted H decomposition was 0.08..1.35 deg at 0.8 px noise (doc/geometry.md).
+    // A plane constrains the translation direction less than a 3-D scene: over 20 scenes the error of
+    // the refitted H decomposition was 0.39 deg on average, 1.36 deg at most (bench_two_view_accuracy 20 2 0.8).
     EXPECT_LT(a.dirDeg, 2.0) << r.message;
     EXPECT_LT(a.pointRelError, 0.05);
     EXPECT_LE(a.triangulatedOutliers, 0.05 * a.outliers);
