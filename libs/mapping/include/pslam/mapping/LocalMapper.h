@@ -82,7 +82,7 @@ struct LocalMappingReport {
   int culledKeyFrames = 0;      ///< redundant keyframes erased
   int baObservationsErased = 0; ///< outlier observations removed after local BA
   int baPointsErased = 0;       ///< points that lost their last observation in local BA
-  int landmarkUpdates = 0;      ///< probabilistic keypoint-model updates (0 for heuristic / masking)
+  int landmarkUpdates = 0;      ///< keypoint-model depth updates (masking / probabilistic; 0 for heuristic)
   double baInitialRmsPixels = 0.0, baFinalRmsPixels = 0.0;
   // Timings per step (wall clock, ms).
   double processMs = 0.0, cullPointsMs = 0.0, triangulationMs = 0.0, fusionMs = 0.0, localBaMs = 0.0,
@@ -120,12 +120,16 @@ class LocalMapper {
   int searchInNeighbors(map::KeyFrameId kf);
   optimize::MapUpdateSummary runLocalBundleAdjustment(map::KeyFrameId kf, optimize::BAResult* result = nullptr);
   int cullKeyFrames(map::KeyFrameId kf);
+  /// ORB-SLAM ORBmatcher::Fuse: projects `points` into keyframe `kf` and fuses / adds observations.
+  /// Returns the number of fusions plus new observations.
+  int fuseInto(map::KeyFrameId kf, const std::vector<map::MapPointId>& points);
 
  private:
   struct Impl;
   map::Map& map_;
   LocalMappingParams params_;
   std::vector<map::MapPointId> recent_;
+  int landmarkUpdates_ = 0;
   std::unique_ptr<Impl> impl_;
 };
 

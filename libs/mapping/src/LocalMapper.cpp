@@ -1,0 +1,567 @@
+// ORB-SLAM's LocalMapping::Run for one keyframe (thesis §2.4.1, §3.4.3). Step order and constants follow
+// ORB-SLAM2's LocalMapping.cc / ORBmatcher.cc (monocular); differences are listed in doc/mapping.md.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+
+#include <Eigen/Dense>
+
+#include "pslam/core/Error.h"
+#include "pslam/features/FeatureGrid.h"
+#include "pslam/features/Matching.h"
+#include "pslam/geometry/Epipolar.h"
+#include "pslam/geometry/Triangulation.h"
+#include "pslam/landmarks/MeasurementVariance.h"
+#include "pslam/mapping/LocalMapper.h"
+
+namespace pslam::mapping {
+
+using map::KeyFrame;
+using map::KeyFrameId;
+using map::MapPoint;
+using map::MapPointId;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+Eigen::Matrix3d intrinsicMatrix(const map::CameraIntrinsics& c) {
+  Eigen::Matrix3d K;
+  K << c.fx, 0.0, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0;
+  return K;
+}
+
+/// Median z of the keyframe's points in its own camera (ORB-SLAM ComputeSceneMedianDepth(2)); -1 if none.
+double sceneMedianDepth(const map::Map& map, const KeyFrame& kf) {
+  std::vector<double> z;
+  for (MapPointId p : kf.mapPointIds)
+    if (p != map::kNoMapPoint) z.push_back((kf.T_cam_world * map.worldPosition(p)).z());
+  if (z.empty()) return -1.0;
+  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+  return z[z.size() / 2];
+}
+
+/// ORB-SLAM's rotation histogram: bin of an angle difference in degrees over 360 / bins.
+int rotationBin(float angle1, float angle2, int bins) {
+  float rot = angle1 - angle2;
+  if (rot < 0.0f) rot += 360.0f;
+  int bin = static_cast<int>(std::round(rot * (1.0f / 360.0f) * bins));
+  if (bin == bins) bin = 0;
+  return std::clamp(bin, 0, bins - 1);
+}
+
+constexpr int kRotationBins = 30;
+
+/// Keeps only the matches whose rotation bin is one of the three most populated (ORB-SLAM).
+template <typename Match>
+std::vector<Match> filterByRotation(const std::vector<Match>& matches, const std::vector<int>& bins) {
+  std::vector<std::vector<int>> histogram(kRotationBins);
+  for (std::size_t i = 0; i < matches.size(); ++i) histogram[bins[i]].push_back(static_cast<int>(i));
+  int b1 = -1, b2 = -1, b3 = -1;
+  features::threeLargestBins(histogram, b1, b2, b3);
+  std::vector<Match> kept;
+  for (std::size_t i = 0; i < matches.size(); ++i)
+    if (bins[i] == b1 || bins[i] == b2 || bins[i] == b3) kept.push_back(matches[i]);
+  return kept;
+}
+
+}  // namespace
+
+struct LocalMapper::Impl {
+  landmarks::KeypointModel keypointModel;
+  std::unique_ptr<landmarks::MapPointPolicy> policy;
+};
+
+LocalMapper::LocalMapper(map::Map& map, const LocalMappingParams& params)
+    : map_(map), params_(params), impl_(std::make_unique<Impl>()) {
+  params_.check();
+  impl_->keypointModel = landmarks::KeypointModel(params_.keypointModel);
+  impl_->policy = landmarks::makeMapPointPolicy(params_.pointPolicy, impl_->keypointModel);
+}
+
+LocalMapper::~LocalMapper() = default;
+
+void LocalMapper::reset() { recent_.clear(); }
+
+landmarks::MapPointModel LocalMapper::model() const { return params_.pointPolicy.model; }
+
+namespace {
+/// What the policy sees of a map point: its counters and, if any, its keypoint-model state.
+landmarks::MapPointRecord recordOf(const MapPoint& p) {
+  landmarks::MapPointRecord r;
+  if (!p.landmarkState.empty()) r.model = decodeKeypointState(p.landmarkState, "map point " + std::to_string(p.id));
+  r.counters.visible = static_cast<std::uint32_t>(std::max(0, p.visibleCount));
+  r.counters.found = static_cast<std::uint32_t>(std::max(0, p.foundCount));
+  r.counters.observations = static_cast<std::uint32_t>(p.numObservations());
+  r.counters.firstKeyframeId = static_cast<std::int64_t>(p.firstKeyFrame);
+  r.counters.bad = p.bad;
+  return r;
+}
+}  // namespace
+
+bool LocalMapper::isActive(MapPointId point) const {
+  const MapPoint& p = map_.mapPoint(point);
+  if (p.bad) return false;
+  if (model() == landmarks::MapPointModel::Heuristic) return true;
+  // A point without state has seen no evidence yet: the policy judges it with the initial state.
+  return impl_->policy->isActive(recordOf(p));
+}
+
+// ------------------------------------------------------------------------------------ probabilistic hook
+
+namespace {
+
+/// SVO's initial seed spread: the whole inverse-depth range is +-3 sigma.
+double initialVariance(const landmarks::KeypointModelParams& p) {
+  const double range = p.inverseDepthMax - p.inverseDepthMin;
+  return range * range / 36.0;
+}
+
+}  // namespace
+
+/// Updates the keypoint model of `pointId` with its observation in keyframe `kfId` (§3.4.2): the inverse
+/// depth along the anchor's z axis is re-triangulated from the anchor keypoint and this observation (DLT),
+/// tau^2 follows eq. 2.24-2.29, alpha is eq. 3.2 of the Hamming distance between the point's descriptor and
+/// the observed keypoint's. Returns true if a depth update was applied.
+static bool updateLandmarkState(map::Map& map, const landmarks::KeypointModel& model, const LocalMappingParams& params,
+                                MapPointId pointId, KeyFrameId kfId) {
+  MapPoint& p = map.mutableMapPoint(pointId);
+  const std::string context = "map point " + std::to_string(pointId);
+  landmarks::KeypointState state = p.landmarkState.empty()
+                                       ? model.initialize(p.inverseDepthAlongZ(), initialVariance(model.params()))
+                                       : decodeKeypointState(p.landmarkState, context);
+  const KeyFrame& kf = map.keyFrame(kfId);
+  const std::size_t k = p.observations.at(kfId);
+  bool updated = false;
+  if (kfId != p.anchorKeyFrame) {
+    const KeyFrame& anchor = map.keyFrame(p.anchorKeyFrame);
+    const geometry::Matrix34d P1 = geometry::projectionMatrix(
+        intrinsicMatrix(anchor.camera), anchor.T_cam_world.linear(), anchor.T_cam_world.translation());
+    const geometry::Matrix34d P2 =
+        geometry::projectionMatrix(intrinsicMatrix(kf.camera), kf.T_cam_world.linear(), kf.T_cam_world.translation());
+    Eigen::Vector3d X;
+    if (geometry::triangulateDLT(P1, anchor.pixel(p.anchorKeypoint), P2, kf.pixel(k), X)) {
+      const Eigen::Vector3d X_anchor = anchor.T_cam_world * X;
+      const Eigen::Vector3d bearingRef = anchor.camera.bearing(anchor.pixel(p.anchorKeypoint));
+      const Eigen::Vector3d t_ref_cur = anchor.T_cam_world * kf.cameraCenter();
+      if (X_anchor.z() > 0.0 && t_ref_cur.norm() > 0.0) {
+        const landmarks::DepthUncertainty tau = landmarks::depthUncertainty(
+            bearingRef, X_anchor.norm(), t_ref_cur, anchor.camera.fx, params.depthPixelNoise);
+        if (tau.valid && tau.tau2InverseDepth() > 0.0) {
+          const double alpha = p.descriptor.empty() || kf.descriptors.empty()
+                                   ? 1.0
+                                   : landmarks::matchingAccuracyFromDescriptors(
+                                         p.descriptor, kf.descriptors.row(static_cast<int>(k)),
+                                         params.matchingAccuracy.hammingMaxDistance);
+          const double d = 1.0 / X_anchor.z();
+          if (!kf.semanticProbabilities.empty()) {
+            const auto& c = kf.semanticProbabilities.at(k);
+            model.observe(state, d, tau.tau2InverseDepth(), alpha, {c[0], c[1], c[2]});
+          } else {
+            model.updateDepth(state, d, tau.tau2InverseDepth(), alpha);
+          }
+          updated = true;
+        }
+      }
+    }
+  } else if (!kf.semanticProbabilities.empty() && state.semanticUpdates == 0) {
+    // The anchor observation carries no depth measurement but its semantics count (eq. 3.10).
+    const auto& c = kf.semanticProbabilities.at(k);
+    model.addSemanticObservation(state, {c[0], c[1], c[2]}, 1.0);
+  }
+  p.landmarkState = encodeKeypointState(state);
+  return updated;
+}
+
+// ------------------------------------------------------------------------------------ 1. ProcessNewKeyFrame
+
+void LocalMapper::processNewKeyFrame(KeyFrameId kfId, const std::vector<MapPointId>& recentlyAddedByTracking) {
+  if (!map_.hasKeyFrame(kfId)) throw Error("LocalMapper: keyframe " + std::to_string(kfId) + " is not in the map");
+  for (MapPointId id : map_.pointsOf(kfId)) {
+    if (map_.mapPoint(id).bad) continue;
+    map_.updateNormalAndDepth(id);
+    map_.computeDistinctiveDescriptor(id);
+    if (model() != landmarks::MapPointModel::Heuristic &&
+        updateLandmarkState(map_, impl_->keypointModel, params_, id, kfId))
+      ++landmarkUpdates_;
+  }
+  // Covisibility weights are kept by Map::addObservation; the spanning tree link is made once.
+  map_.connectToSpanningTree(kfId);
+  std::set<MapPointId> recent(recent_.begin(), recent_.end());
+  for (MapPointId id : recentlyAddedByTracking)
+    if (map_.hasMapPoint(id)) recent.insert(id);
+  recent_.assign(recent.begin(), recent.end());
+}
+
+// ------------------------------------------------------------------------------------ 2. MapPointCulling
+
+int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
+  int culled = 0;
+  const auto current = static_cast<std::int64_t>(kfId);
+  std::vector<MapPointId> stillRecent;
+  for (MapPointId id : recent_) {
+    if (!map_.hasMapPoint(id)) continue;  // fused or erased meanwhile
+    const MapPoint& p = map_.mapPoint(id);
+    const landmarks::MapPointRecord record = recordOf(p);
+    const bool cull = p.bad || impl_->policy->shouldCull(record, current);
+    if (cull) {
+      map_.eraseMapPoint(id);
+      ++culled;
+      continue;
+    }
+    // ORB-SLAM: a point that survived three keyframes leaves probation.
+    if (current - record.counters.firstKeyframeId >= params_.pointPolicy.observationWindow + 1) continue;
+    stillRecent.push_back(id);
+  }
+  recent_ = std::move(stillRecent);
+  return culled;
+}
+
+// ------------------------------------------------------------------------------------ 3. CreateNewMapPoints
+
+namespace {
+
+struct PairMatch {
+  std::size_t i1 = 0, i2 = 0;
+};
+
+/// ORB-SLAM SearchForTriangulation without a vocabulary: every unmatched keypoint of kf1 against every
+/// unmatched keypoint of kf2 (ascending indices), TH_LOW, far enough from the epipole, on the epipolar line
+/// (chi2 3.84 with kf2's level sigma^2), best/second-best ratio, one kf1 keypoint per kf2 keypoint, then the
+/// rotation histogram.
+std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2, const Eigen::Matrix3d& F12,
+                                              const LocalMappingParams& params) {
+  // Epipole in kf2: projection of kf1's centre.
+  const Eigen::Vector3d c1in2 = kf2.T_cam_world * kf1.cameraCenter();
+  const bool epipoleValid = c1in2.z() > 1e-9;
+  const Eigen::Vector2d epipole = epipoleValid ? kf2.camera.project(c1in2) : Eigen::Vector2d::Zero();
+
+  std::vector<std::size_t> free2;
+  for (std::size_t j = 0; j < kf2.numKeypoints(); ++j)
+    if (kf2.mapPointIds[j] == map::kNoMapPoint) free2.push_back(j);
+  std::vector<bool> taken2(kf2.numKeypoints(), false);
+
+  std::vector<PairMatch> matches;
+  std::vector<int> bins;
+  for (std::size_t i = 0; i < kf1.numKeypoints(); ++i) {
+    if (kf1.mapPointIds[i] != map::kNoMapPoint) continue;
+    const uint8_t* d1 = kf1.descriptors.ptr<uint8_t>(static_cast<int>(i));
+    const Eigen::Vector2d x1 = kf1.pixel(i);
+    int best = params.maxDescriptorDistance + 1, second = 257;
+    std::size_t bestJ = 0;
+    bool found = false;
+    for (std::size_t j : free2) {
+      if (taken2[j]) continue;
+      const int dist = features::hammingDistance256(d1, kf2.descriptors.ptr<uint8_t>(static_cast<int>(j)));
+      if (dist > params.maxDescriptorDistance || dist >= second) continue;
+      const Eigen::Vector2d x2 = kf2.pixel(j);
+      const int octave2 = kf2.keypoints[j].octave;
+      if (epipoleValid) {
+        const double minDist = params.epipolarMinDistancePixels;
+        if ((x2 - epipole).squaredNorm() < minDist * minDist * kf2.scaleFactors.at(octave2)) continue;
+      }
+      if (!geometry::checkDistEpipolarLine(x1, x2, F12, kf2.levelSigma2.at(octave2))) continue;
+      if (dist < best) {
+        second = found ? best : second;
+        best = dist;
+        bestJ = j;
+        found = true;
+      } else {
+        second = dist;
+      }
+    }
+    if (!found) continue;
+    if (static_cast<double>(best) >= params.nnRatio * static_cast<double>(second)) continue;
+    taken2[bestJ] = true;
+    matches.push_back({i, bestJ});
+    bins.push_back(rotationBin(kf1.keypoints[i].angle, kf2.keypoints[bestJ].angle, kRotationBins));
+  }
+  if (params.checkOrientation) return filterByRotation(matches, bins);
+  return matches;
+}
+
+}  // namespace
+
+std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
+  std::vector<MapPointId> created;
+  const std::vector<KeyFrameId> neighbours =
+      map_.bestCovisibleKeyFrames(kfId, static_cast<std::size_t>(params_.covisibleKeyFrames));
+  for (KeyFrameId nId : neighbours) {
+    const KeyFrame& kf1 = map_.keyFrame(kfId);
+    const KeyFrame& kf2 = map_.keyFrame(nId);
+    if (kf1.descriptors.empty() || kf2.descriptors.empty()) continue;
+    const Eigen::Vector3d O1 = kf1.cameraCenter(), O2 = kf2.cameraCenter();
+    const double medianDepth2 = sceneMedianDepth(map_, kf2);
+    if (medianDepth2 <= 0.0 || (O2 - O1).norm() / medianDepth2 < params_.minBaselineRatio) continue;
+
+    const Eigen::Matrix3d K1 = intrinsicMatrix(kf1.camera), K2 = intrinsicMatrix(kf2.camera);
+    const Eigen::Matrix3d R1 = kf1.T_cam_world.linear(), R2 = kf2.T_cam_world.linear();
+    const Eigen::Vector3d t1 = kf1.T_cam_world.translation(), t2 = kf2.T_cam_world.translation();
+    const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(K1, R1, t1, K2, R2, t2);
+    const std::vector<PairMatch> matches = searchForTriangulation(kf1, kf2, F12, params_);
+    const geometry::Matrix34d P1 = geometry::projectionMatrix(K1, R1, t1), P2 = geometry::projectionMatrix(K2, R2, t2);
+    const double ratioFactor = params_.scaleConsistencyFactor * kf1.scaleFactors.at(std::min(1, kf1.numLevels() - 1));
+
+    for (const PairMatch& m : matches) {
+      const cv::KeyPoint& kp1 = kf1.keypoints[m.i1];
+      const cv::KeyPoint& kp2 = kf2.keypoints[m.i2];
+      // Parallax of the two rays (ORB-SLAM cosParallaxRays): too small and the DLT is ill-conditioned.
+      const Eigen::Vector3d ray1 = R1.transpose() * kf1.camera.bearing(kf1.pixel(m.i1));
+      const Eigen::Vector3d ray2 = R2.transpose() * kf2.camera.bearing(kf2.pixel(m.i2));
+      const double cosParallaxRays = ray1.dot(ray2);
+      if (!(cosParallaxRays > 0.0 && cosParallaxRays < params_.maxParallaxCos)) continue;
+      Eigen::Vector3d X;
+      if (!geometry::triangulateDLT(P1, kf1.pixel(m.i1), P2, kf2.pixel(m.i2), X)) continue;
+      if (!geometry::hasPositiveDepth(R1, t1, X) || !geometry::hasPositiveDepth(R2, t2, X)) continue;
+      // Reprojection chi2 (2 DoF, 5.991) with each keypoint's level variance.
+      const double sigma1 = kf1.levelSigma2.at(kp1.octave), sigma2 = kf2.levelSigma2.at(kp2.octave);
+      if (!geometry::passesReprojectionTest(geometry::reprojectionErrorSquared(K1, R1, t1, X, kf1.pixel(m.i1)),
+                                            sigma1, params_.chi2Threshold) ||
+          !geometry::passesReprojectionTest(geometry::reprojectionErrorSquared(K2, R2, t2, X, kf2.pixel(m.i2)),
+                                            sigma2, params_.chi2Threshold))
+        continue;
+      // Scale consistency: the distance ratio must agree with the octave ratio within ratioFactor.
+      const double dist1 = (X - O1).norm(), dist2 = (X - O2).norm();
+      if (dist1 <= 0.0 || dist2 <= 0.0) continue;
+      const double ratioDist = dist2 / dist1;
+      const double ratioOctave = kf1.scaleFactors.at(kp1.octave) / kf2.scaleFactors.at(kp2.octave);
+      if (ratioDist * ratioFactor < ratioOctave || ratioDist > ratioOctave * ratioFactor) continue;
+
+      // Inverse-depth point (eq. 3.1) anchored in the keypoint of the NEW keyframe, as ORB-SLAM's
+      // reference keyframe of a point created here.
+      const MapPointId id = map_.addMapPoint(kfId, m.i1, X);
+      map_.addObservation(id, nId, m.i2);
+      map_.computeDistinctiveDescriptor(id);
+      map_.updateNormalAndDepth(id);
+      if (model() != landmarks::MapPointModel::Heuristic) {
+        // Seed of the keypoint model: the triangulated inverse depth with the eq. 2.24-2.29 variance of
+        // this pair (SVO's spread if the pair gives none).
+        MapPoint& p = map_.mutableMapPoint(id);
+        const Eigen::Vector3d t_ref_cur = kf1.T_cam_world * O2;
+        const landmarks::DepthUncertainty tau =
+            t_ref_cur.norm() > 0.0 ? landmarks::depthUncertainty(p.bearing, 1.0 / p.inverseDepth, t_ref_cur,
+                                                                 kf1.camera.fx, params_.depthPixelNoise)
+                                   : landmarks::DepthUncertainty{};
+        const double variance = tau.valid && tau.tau2InverseDepth() > 0.0 ? tau.tau2InverseDepth()
+                                                                          : initialVariance(params_.keypointModel);
+        landmarks::KeypointState state = impl_->keypointModel.initialize(p.inverseDepthAlongZ(), variance);
+        if (!kf1.semanticProbabilities.empty()) {
+          const auto& c1 = kf1.semanticProbabilities.at(m.i1);
+          impl_->keypointModel.addSemanticObservation(state, {c1[0], c1[1], c1[2]}, 1.0);
+        }
+        if (!kf2.semanticProbabilities.empty()) {
+          const auto& c2 = kf2.semanticProbabilities.at(m.i2);
+          const double alpha = landmarks::matchingAccuracyFromDescriptors(
+              kf1.descriptors.row(static_cast<int>(m.i1)), kf2.descriptors.row(static_cast<int>(m.i2)),
+              params_.matchingAccuracy.hammingMaxDistance);
+          impl_->keypointModel.addSemanticObservation(state, {c2[0], c2[1], c2[2]}, alpha);
+        }
+        p.landmarkState = encodeKeypointState(state);
+      }
+      created.push_back(id);
+    }
+  }
+  std::set<MapPointId> recent(recent_.begin(), recent_.end());
+  recent.insert(created.begin(), created.end());
+  recent_.assign(recent.begin(), recent.end());
+  return created;
+}
+
+// ------------------------------------------------------------------------------------ 4. SearchInNeighbors
+
+/// ORB-SLAM ORBmatcher::Fuse(pKF, vpMapPoints, th): projects each point into `kfId`, picks the best keypoint
+/// in a scale-dependent radius at the predicted level (or one finer), gated by the reprojection chi2; a
+/// matched keypoint with its own point means a duplicate (the one with more observations is kept), a free
+/// keypoint gets the observation. Returns the number of fusions + new observations.
+int LocalMapper::fuseInto(KeyFrameId kfId, const std::vector<MapPointId>& points) {
+  const KeyFrame& kf0 = map_.keyFrame(kfId);
+  if (kf0.descriptors.empty() || kf0.numKeypoints() == 0) return 0;
+  const features::FeatureGrid grid = features::FeatureGrid::fromKeypoints(
+      kf0.keypoints, cv::Rect2f(0.f, 0.f, float(kf0.camera.width), float(kf0.camera.height)));
+  int fused = 0;
+  for (MapPointId id : points) {
+    if (!map_.hasMapPoint(id)) continue;
+    const MapPoint& p = map_.mapPoint(id);
+    if (p.bad || p.isObservedBy(kfId) || p.descriptor.empty()) continue;
+    const KeyFrame& kf = map_.keyFrame(kfId);
+    const Eigen::Vector3d X = map_.worldPosition(id);
+    const Eigen::Vector3d Xc = kf.T_cam_world * X;
+    if (Xc.z() <= 0.0) continue;
+    const Eigen::Vector2d uv = kf.camera.project(Xc);
+    if (!kf.camera.inImage(uv)) continue;
+    const Eigen::Vector3d PO = X - kf.cameraCenter();
+    const double dist3D = PO.norm();
+    if (dist3D < 0.8 * p.minDistance || dist3D > 1.2 * p.maxDistance) continue;
+    if (PO.dot(p.normal) < 0.5 * dist3D) continue;  // viewing angle > 60 deg from the mean
+    const int predictedLevel = map_.predictScale(id, dist3D, kfId);
+    const double radius = params_.fusionRadiusPixels * kf.scaleFactors.at(predictedLevel);
+    const std::vector<size_t> candidates = grid.featuresInRadius(
+        float(uv.x()), float(uv.y()), float(radius), features::OctaveRange{predictedLevel - 1, predictedLevel});
+    int bestDist = 256;
+    std::size_t bestIdx = 0;
+    bool found = false;
+    for (size_t c : candidates) {
+      const double e2 = (kf.pixel(c) - uv).squaredNorm();
+      if (e2 * kf.invSigma2(c) > params_.chi2Threshold) continue;
+      const int dist = features::hammingDistance(p.descriptor, 0, kf.descriptors, static_cast<int>(c));
+      if (dist < bestDist) {
+        bestDist = dist;
+        bestIdx = c;
+        found = true;
+      }
+    }
+    if (!found || bestDist > features::kOrbThLow) continue;
+    const MapPointId existing = kf.mapPointIds[bestIdx];
+    if (existing != map::kNoMapPoint) {
+      if (map_.mapPoint(existing).bad) continue;
+      // Keep the better-established point (more observations; ties keep the one already in the keyframe).
+      if (map_.mapPoint(existing).numObservations() >= p.numObservations())
+        map_.fuseMapPoints(existing, id);
+      else
+        map_.fuseMapPoints(id, existing);
+    } else {
+      map_.addObservation(id, kfId, bestIdx);
+    }
+    ++fused;
+  }
+  return fused;
+}
+
+int LocalMapper::searchInNeighbors(KeyFrameId kfId) {
+  // Targets: first-order neighbours and, for each, its best second-order neighbours (ascending, unique).
+  std::vector<KeyFrameId> targets;
+  std::set<KeyFrameId> seen{kfId};
+  const auto first = map_.bestCovisibleKeyFrames(kfId, static_cast<std::size_t>(params_.fusionNeighbours));
+  for (KeyFrameId n : first)
+    if (seen.insert(n).second) targets.push_back(n);
+  for (KeyFrameId n : first)
+    for (KeyFrameId n2 : map_.bestCovisibleKeyFrames(n, static_cast<std::size_t>(params_.fusionSecondOrderNeighbours)))
+      if (seen.insert(n2).second) targets.push_back(n2);
+
+  int fused = 0;
+  // The keyframe's points into every target.
+  for (KeyFrameId t : targets) {
+    if (!map_.hasKeyFrame(t) || !map_.hasKeyFrame(kfId)) continue;
+    fused += fuseInto(t, map_.pointsOf(kfId));
+  }
+  // The targets' points into the keyframe.
+  std::set<MapPointId> candidates;
+  for (KeyFrameId t : targets)
+    if (map_.hasKeyFrame(t))
+      for (MapPointId id : map_.pointsOf(t)) candidates.insert(id);
+  fused += fuseInto(kfId, std::vector<MapPointId>(candidates.begin(), candidates.end()));
+  // Appearance of the keyframe's points after the new observations (covisibility is kept by the map).
+  for (MapPointId id : map_.pointsOf(kfId)) {
+    map_.computeDistinctiveDescriptor(id);
+    map_.updateNormalAndDepth(id);
+  }
+  return fused;
+}
+
+// ------------------------------------------------------------------------------------ 5. LocalBundleAdjustment
+
+optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId, optimize::BAResult* resultOut) {
+  optimize::BAProblem problem = optimize::makeLocalProblem(map_, kfId, params_.ba);
+  // Inactive points (masking / probabilistic model) take no part in the optimization.
+  if (model() != landmarks::MapPointModel::Heuristic) {
+    for (auto it = problem.points.begin(); it != problem.points.end();)
+      it = isActive(it->first) ? std::next(it) : problem.points.erase(it);
+    std::vector<optimize::BAObservation> kept;
+    for (const auto& o : problem.observations)
+      if (problem.points.count(o.point)) kept.push_back(o);
+    problem.observations = std::move(kept);
+  }
+  bool anyFree = false;
+  for (const auto& [id, k] : problem.keyframes) anyFree = anyFree || !k.fixed;
+  if (problem.observations.empty() || !anyFree) return {};
+  const optimize::BAResult result = optimize::localBundleAdjustment(problem, params_.ba);
+  if (resultOut) *resultOut = result;
+  return optimize::applyResult(map_, problem, result, true);
+}
+
+// ------------------------------------------------------------------------------------ 6. KeyFrameCulling
+
+int LocalMapper::cullKeyFrames(KeyFrameId kfId) {
+  if (map_.numKeyFrames() <= 2) return 0;
+  // Never the first two keyframes (the initial map, which also fixes the gauge).
+  auto it = map_.keyFrames().begin();
+  const KeyFrameId firstId = it->first;
+  const KeyFrameId secondId = std::next(it)->first;
+  int culled = 0;
+  for (KeyFrameId candidate : map_.covisibleKeyFrames(kfId, 1)) {
+    if (candidate == firstId || candidate == secondId || candidate == kfId || !map_.hasKeyFrame(candidate)) continue;
+    const KeyFrame& kf = map_.keyFrame(candidate);
+    int numPoints = 0, numRedundant = 0;
+    for (std::size_t k = 0; k < kf.numKeypoints(); ++k) {
+      const MapPointId id = kf.mapPointIds[k];
+      if (id == map::kNoMapPoint) continue;
+      const MapPoint& p = map_.mapPoint(id);
+      if (p.bad) continue;
+      ++numPoints;
+      if (static_cast<int>(p.numObservations()) <= params_.redundantMinObservers) continue;
+      const int level = kf.keypoints[k].octave;
+      int observers = 0;
+      for (const auto& [other, ko] : p.observations) {
+        if (other == candidate) continue;
+        // Same or finer scale (ORB-SLAM allows one level coarser).
+        if (map_.keyFrame(other).keypoints[ko].octave <= level + 1 && ++observers >= params_.redundantMinObservers)
+          break;
+      }
+      if (observers >= params_.redundantMinObservers) ++numRedundant;
+    }
+    if (numPoints > 0 && numRedundant > params_.redundantFraction * numPoints) {
+      map_.eraseKeyFrame(candidate);
+      ++culled;
+    }
+  }
+  return culled;
+}
+
+// ------------------------------------------------------------------------------------ all steps
+
+LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vector<MapPointId>& recentlyAddedByTracking) {
+  LocalMappingReport report;
+  const auto t0 = Clock::now();
+  landmarkUpdates_ = 0;
+  auto t = Clock::now();
+  processNewKeyFrame(kfId, recentlyAddedByTracking);
+  report.processMs = msSince(t);
+
+  t = Clock::now();
+  report.culledPoints = cullRecentPoints(kfId);
+  report.cullPointsMs = msSince(t);
+
+  t = Clock::now();
+  report.newPoints = static_cast<int>(createNewMapPoints(kfId).size());
+  report.triangulationMs = msSince(t);
+
+  t = Clock::now();
+  report.fusedPoints = searchInNeighbors(kfId);
+  report.fusionMs = msSince(t);
+
+  if (params_.localBundleAdjustment && map_.numKeyFrames() > 2) {
+    t = Clock::now();
+    optimize::BAResult result;
+    const optimize::MapUpdateSummary summary = runLocalBundleAdjustment(kfId, &result);
+    report.baObservationsErased = summary.observationsErased;
+    report.baPointsErased = summary.pointsErased;
+    report.baInitialRmsPixels = result.initialRmsPixels;
+    report.baFinalRmsPixels = result.finalRmsPixels;
+    report.localBaMs = msSince(t);
+  }
+
+  if (params_.cullKeyFrames) {
+    t = Clock::now();
+    report.culledKeyFrames = cullKeyFrames(kfId);
+    report.cullKeyFramesMs = msSince(t);
+  }
+  report.landmarkUpdates = landmarkUpdates_;
+  report.totalMs = msSince(t0);
+  return report;
+}
+
+}  // namespace pslam::mapping
