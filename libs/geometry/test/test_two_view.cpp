@@ -56,10 +56,12 @@ Accuracy accuracyOf(const TwoViewScene& s, const TwoViewResult& r) {
 }  // namespace
 
 TEST(TwoViewInitializer, GeneralSceneSelectsFundamentalAndRecoversMotion) {
-  // At 0.5 px every scene meets the bounds; at 1 px the translation direction meets 1 deg on average
-  // (single scenes reach ~1.1 deg at 0.8 px: the statistical limit of this geometry, not a bias).
+  // At 0.5 px every scene meets the bounds (rotation < 0.5 deg, direction < 1 deg); at 1 px they hold on
+  // average, single scenes reach 0.71 / 1.06 deg (20 scenes: bench_two_view_accuracy 20 2 1.0), which is
+  // the statistical limit of this geometry rather than a bias (the means shrink with the noise).
   for (const double noisePx : {0.5, 1.0}) {
-    double dirSum = 0.0;
+    const bool strict = noisePx <= 0.5;
+    double dirSum = 0.0, rotSum = 0.0;
     const int numScenes = 8;
     for (int seed = 1; seed <= numScenes; ++seed) {
       const TwoViewScene s = makeScene(SceneShape::General, kR, kTWide, 400, noisePx, 0.2, static_cast<unsigned>(seed));
@@ -70,9 +72,10 @@ TEST(TwoViewInitializer, GeneralSceneSelectsFundamentalAndRecoversMotion) {
       EXPECT_EQ(r.model, TwoViewModel::Fundamental) << r.message;
       EXPECT_LT(r.ratioH, 0.40) << r.message;
       const Accuracy a = accuracyOf(s, r);
-      EXPECT_LT(a.rotDeg, 0.5) << r.message;
-      EXPECT_LT(a.dirDeg, noisePx <= 0.5 ? 1.0 : 2.0) << r.message;
+      EXPECT_LT(a.rotDeg, strict ? 0.5 : 1.0) << r.message;
+      EXPECT_LT(a.dirDeg, strict ? 1.0 : 2.0) << r.message;
       dirSum += a.dirDeg;
+      rotSum += a.rotDeg;
       EXPECT_NEAR(r.t_cur_ref.norm(), 1.0, 1e-9);
       // First-order depth error Z^2 / (f b) * sqrt(2) sigma is ~1.6 % per pixel of noise at 6 m; the pose
       // error adds to it.
@@ -86,6 +89,7 @@ TEST(TwoViewInitializer, GeneralSceneSelectsFundamentalAndRecoversMotion) {
                 << a.dirDeg << " deg, median point error " << 100 * a.pointRelError << " %, " << r.message << "\n";
     }
     EXPECT_LT(dirSum / numScenes, 1.0) << "mean translation direction error at " << noisePx << " px";
+    EXPECT_LT(rotSum / numScenes, 0.5) << "mean rotation error at " << noisePx << " px";
   }
 }
 
