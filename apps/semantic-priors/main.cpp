@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
   bool quiet = false;
   cli.add_option("input", input, "input rawlog")->required();
   cli.add_option("output", output, "output rawlog (images re-written into <stem>_Images)")->required();
-  cli.add_option("--labels", labels, "folder of 8-bit label images, e.g. <name>_Labels (one-hot SEMANTIC)");
+  cli.add_option("--labels", labels, "folder of 8-bit label images (one-hot SEMANTIC); auto = <input stem>_Labels beside the input");
   cli.add_option("--label-pattern", o.labelPattern, "label file name pattern, printf of the frame index")
       ->capture_default_str();
   cli.add_option("--class-map", classMap, "class-map ini for --labels (default: Cityscapes trainIds, Table 3.1)");

@@ -27,8 +27,13 @@ void SemanticPriorsOptions::check() const {
   if (overlayEvery == 0) throw Error("semantic-priors: --overlay-every must be >= 1");
 }
 
+std::filesystem::path labelsDirFor(const std::filesystem::path& rawlogPath) {
+  return rawlogPath.parent_path() / (rawlogPath.stem().string() + "_Labels");
+}
+
 SemanticPriorsApp::SemanticPriorsApp(SemanticPriorsOptions options) : options_(std::move(options)) {
   options_.check();
+  if (options_.labelsDir == "auto") options_.labelsDir = labelsDirFor(options_.input);
 }
 
 SemanticPriorsReport SemanticPriorsApp::run() {

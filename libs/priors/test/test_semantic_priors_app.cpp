@@ -55,9 +55,10 @@ TEST(SemanticPriorsApp, AddsOneHotSemanticChannelFromLabels) {
   priors::SemanticPriorsOptions o;
   o.input = fx.rawlog;
   o.output = fx.dir / "out" / "seq_sem.rawlog";
-  o.labelsDir = fx.labels;
+  o.labelsDir = "auto";  // seq_Labels beside seq.rawlog
   o.overlayDir = fx.dir / "overlays";
   o.progress = false;
+  EXPECT_EQ(priors::labelsDirFor(fx.rawlog), fx.labels);
   const auto report = priors::SemanticPriorsApp(o).run();
   EXPECT_EQ(report.frames, 3u);
   EXPECT_EQ(report.overlays, 3u);

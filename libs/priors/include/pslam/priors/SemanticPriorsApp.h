@@ -15,7 +15,7 @@ namespace pslam::priors {
 struct SemanticPriorsOptions {
   std::filesystem::path input;              ///< existing rawlog
   std::filesystem::path output;             ///< new rawlog (must differ from input)
-  std::filesystem::path labelsDir;          ///< source (a): folder of label images ...
+  std::filesystem::path labelsDir;          ///< source (a): folder of label images ("auto" = labelsDirFor(input)) ...
   std::string labelPattern = "LABEL_%06d.png";
   std::filesystem::path classMapFile;       ///< ... mapped through this ini (empty = Cityscapes, Table 3.1)
   std::filesystem::path networkConfig;      ///< source (b): [SemanticNetwork] ini
@@ -35,6 +35,9 @@ struct SemanticPriorsReport {
   StageTimings timings;  ///< "read", "semantic", "write" per frame (ms)
   std::string source;
 };
+
+/// `<dir>/<stem>_Labels` beside a rawlog, where the synthetic generator writes its label images.
+std::filesystem::path labelsDirFor(const std::filesystem::path& rawlogPath);
 
 class SemanticPriorsApp {
  public:
