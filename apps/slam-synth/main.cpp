@@ -39,7 +39,9 @@ int main(int argc, char** argv) {
                    "triggers texture supersampling")->capture_default_str();
     cli.add_option("--out", o.outDir, "output folder")->required();
     cli.add_option("--name", o.name, "file stem of the outputs (default: the scenario name)");
-    cli.add_option("--preview", o.preview, "also write a PNG panel image|depth|normals|labels of the middle frame");
+    cli.add_option("--preview", o.preview, "also write a PNG panel image|depth|normals|labels of one frame");
+    cli.add_option("--preview-frame", o.previewFrame, "frame index shown in --preview (-1 = middle frame)")
+        ->capture_default_str();
     bool quiet = false;
     cli.add_flag("--quiet", quiet, "no progress line");
     // Load the ini first so that explicit command-line options win.

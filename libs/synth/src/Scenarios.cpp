@@ -20,6 +20,12 @@ std::uint8_t id(TrainId t) { return static_cast<std::uint8_t>(t); }
 struct Dice {
   std::mt19937 rng;
   explicit Dice(std::uint32_t seed) : rng(seed) {}
+  /// An independent stream `id` of `seed`: content whose amount depends on the sequence length (street
+  /// length) draws from its own stream, so a longer sequence extends the scene without reshuffling it.
+  Dice(std::uint32_t seed, std::uint32_t id) {
+    std::seed_seq seq{seed, id};
+    rng.seed(seq);
+  }
   double uniform(double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); }
   bool chance(double p) { return uniform(0, 1) < p; }
   std::uint32_t seed() { return static_cast<std::uint32_t>(rng()); }
@@ -183,7 +189,9 @@ Scenario makeStreet(std::uint32_t seed, double duration) {
   const double egoCruise = 7.0;
   const SpeedProfile ego = stopAndGo(0.0, egoCruise, 77.6, 4.0, tGreen + 2.5, 5.0, egoCruise);
   const double xStart = -40.0;
-  const double xEnd = std::max(260.0, ego.distance(duration) + 160.0);
+  // A fixed 1 km street covers sequences up to ~2 min; longer ones extend it (each kind of content draws
+  // from its own random stream, so the extension does not reshuffle what is already there).
+  const double xEnd = std::max(1000.0, ego.distance(duration) + 160.0);
 
   const int roadMat = s.addMaterial(material(TextureKind::Road, TrainId::Road, dice.seed(), 0.28f, 0.25f,
                                              {static_cast<float>(stopLine + 1.0 - xStart),
@@ -191,30 +199,31 @@ Scenario makeStreet(std::uint32_t seed, double duration) {
                                               static_cast<float>(stopLine - xStart)}));
   s.addFloor(xStart, -8, xEnd, 8, 0, roadMat);
   for (int side : {-1, 1}) {
+    Dice buildings(seed, side > 0 ? 11U : 12U), furniture(seed, side > 0 ? 13U : 14U);
     const int walk = s.addMaterial(material(TextureKind::Sidewalk, TrainId::Sidewalk, dice.seed(), 0.55f, 0.15f));
     s.addFloor(xStart, side > 0 ? 8 : -12, xEnd, side > 0 ? 12 : -8, 0.15, walk);
     s.addWall({xStart, side * 8.0}, {xEnd, side * 8.0}, 0, 0.15, walk);  // kerb
     // Facades: a row of buildings of varied height and style.
     for (double x = xStart; x < xEnd;) {
-      const double len = std::min(dice.uniform(12, 30), xEnd - x);
-      const double h = dice.uniform(9, 24);
+      const double len = std::min(buildings.uniform(12, 30), xEnd - x);
+      const double h = buildings.uniform(9, 24);
       const int facade = s.addMaterial(material(
-          TextureKind::Facade, TrainId::Building, dice.seed(), static_cast<float>(dice.uniform(0.35, 0.7)), 0.12f,
-          {static_cast<float>(dice.uniform(3.0, 3.6)), static_cast<float>(dice.uniform(2.2, 3.2)),
-           static_cast<float>(dice.uniform(0.4, 0.6)), dice.chance(0.5) ? 1.f : 0.f}));
+          TextureKind::Facade, TrainId::Building, buildings.seed(), static_cast<float>(buildings.uniform(0.35, 0.7)), 0.12f,
+          {static_cast<float>(buildings.uniform(3.0, 3.6)), static_cast<float>(buildings.uniform(2.2, 3.2)),
+           static_cast<float>(buildings.uniform(0.4, 0.6)), buildings.chance(0.5) ? 1.f : 0.f}));
       if (side > 0) s.addWall({x + len, 12}, {x, 12}, 0, h, facade);
       else s.addWall({x, -12}, {x + len, -12}, 0, h, facade);
       x += len;
     }
     // Street furniture: lamp posts and trees on the sidewalk.
-    const int poleMat = s.addMaterial(material(TextureKind::Plaster, TrainId::Pole, dice.seed(), 0.45f, 0.2f));
-    const int leaves = s.addMaterial(material(TextureKind::Foliage, TrainId::Vegetation, dice.seed(), 0.3f, 0.3f));
+    const int poleMat = s.addMaterial(material(TextureKind::Plaster, TrainId::Pole, furniture.seed(), 0.45f, 0.2f));
+    const int leaves = s.addMaterial(material(TextureKind::Foliage, TrainId::Vegetation, furniture.seed(), 0.3f, 0.3f));
     for (double x = xStart + 10; x < xEnd; x += 25) {
       s.addStaticBox("lamp post", {x, side * 8.5, 0.15}, {0.16, 0.16, 6.0}, 0, poleMat);
-      if (dice.chance(0.6)) {
-        const double xt = x + dice.uniform(8, 16);
+      if (furniture.chance(0.6)) {
+        const double xt = x + furniture.uniform(8, 16);
         s.addStaticBox("trunk", {xt, side * 9.2, 0.15}, {0.3, 0.3, 2.6}, 0, leaves);
-        s.addStaticBox("canopy", {xt, side * 9.2, 2.6}, {2.6, 2.4, 2.4}, dice.uniform(0, 1.5), leaves);
+        s.addStaticBox("canopy", {xt, side * 9.2, 2.6}, {2.6, 2.4, 2.4}, furniture.uniform(0, 1.5), leaves);
       }
     }
   }
@@ -230,9 +239,9 @@ Scenario makeStreet(std::uint32_t seed, double duration) {
   s.addStaticBox("sign", {stopLine - 20, -8.7, 2.35}, {0.05, 0.7, 0.7}, 0, signMat);
 
   // A vehicle's profile gives dir * x of its centre, so oncoming traffic (dir = -1) uses s0 = -x0.
-  auto addVehicle = [&](Vehicle::Kind kind, double lane, int dir, SpeedProfile profile, const std::string& name,
-                        bool moving) {
-    SceneObject o = makeVehicleObject(s, dice, kind, name);
+  auto addVehicle = [&](Dice& looks, Vehicle::Kind kind, double lane, int dir, SpeedProfile profile,
+                        const std::string& name, bool moving) {
+    SceneObject o = makeVehicleObject(s, looks, kind, name);
     o.moving = moving;
     const double yaw = dir > 0 ? 0.0 : M_PI;
     o.T_world_object = [profile, lane, dir, yaw](double t) { return poseXYYaw(dir * profile.distance(t), lane, yaw); };
@@ -241,47 +250,52 @@ Scenario makeStreet(std::uint32_t seed, double duration) {
   // Our direction: a queue at the red light that drives off at green (stop-and-go), and an overtaking car.
   const double qFront = stopLine - 1.0;
   const double q1 = qFront - 2.1, l1 = q1 - 4.2 - 2.0;
-  addVehicle(Vehicle::Car, -4.5, 1, stopAndGo(30, 7, q1, 4.0, tGreen, 4.0, 8.5), "queue car 1", true);
-  addVehicle(Vehicle::Car, -4.5, 1, stopAndGo(16, 7, l1, 4.0, tGreen + 1.0, 4.5, 8.0), "lead car", true);
+  addVehicle(dice, Vehicle::Car, -4.5, 1, stopAndGo(30, 7, q1, 4.0, tGreen, 4.0, 8.5), "queue car 1", true);
+  addVehicle(dice, Vehicle::Car, -4.5, 1, stopAndGo(16, 7, l1, 4.0, tGreen + 1.0, 4.5, 8.0), "lead car", true);
   const double truck = qFront - 4.7;
-  addVehicle(Vehicle::Truck, -1.5, 1, stopAndGo(40, 6, truck, 4.0, tGreen + 0.5, 6.0, 6.0), "truck", true);
-  addVehicle(Vehicle::Car, -1.5, 1, stopAndGo(-25, 11, truck - 4.7 - 2.0 - 2.1, 4.0, tGreen + 1.8, 4.5, 8.5),
+  addVehicle(dice, Vehicle::Truck, -1.5, 1, stopAndGo(40, 6, truck, 4.0, tGreen + 0.5, 6.0, 6.0), "truck", true);
+  addVehicle(dice, Vehicle::Car, -1.5, 1, stopAndGo(-25, 11, truck - 4.7 - 2.0 - 2.1, 4.0, tGreen + 1.8, 4.5, 8.5),
              "overtaking car", true);
   // Oncoming traffic, flowing, with a bus.
   for (double lane : {1.5, 4.5}) {
-    for (double x = 25 + dice.uniform(0, 20); x < xEnd + 150; x += dice.uniform(18, 40)) {
-      const Vehicle::Kind kind = (lane == 1.5 && dice.chance(0.15)) ? Vehicle::Bus : Vehicle::Car;
-      const double v = dice.uniform(7.5, 10.5);
-      addVehicle(kind, lane, -1, SpeedProfile({0.0}, {v}, -x), "oncoming", true);
+    Dice traffic(seed, lane == 1.5 ? 21U : 22U);
+    for (double x = 25 + traffic.uniform(0, 20); x < xEnd + 150; x += traffic.uniform(18, 40)) {
+      const Vehicle::Kind kind = (lane == 1.5 && traffic.chance(0.15)) ? Vehicle::Bus : Vehicle::Car;
+      const double v = traffic.uniform(7.5, 10.5);
+      addVehicle(traffic, kind, lane, -1, SpeedProfile({0.0}, {v}, -x), "oncoming", true);
     }
   }
   // Parked cars on both parking strips: class car (potentially dynamic, Table 3.1) although they never move.
-  for (double side : {-7.0, 7.0})
-    for (double x = xStart + 5; x < xEnd - 5; x += dice.uniform(5.2, 7.5)) {
-      if (!dice.chance(0.7) || std::abs(x - stopLine - 3) < 8) continue;
+  for (double side : {-7.0, 7.0}) {
+    Dice parked(seed, side > 0 ? 31U : 32U);
+    for (double x = xStart + 5; x < xEnd - 5; x += parked.uniform(5.2, 7.5)) {
+      if (!parked.chance(0.7) || std::abs(x - stopLine - 3) < 8) continue;
       // Mostly parked in the driving direction of their side; the profile holds dir * x (see addVehicle).
-      const int dir = dice.chance(0.8) == (side > 0) ? -1 : 1;
-      addVehicle(Vehicle::Car, side, dir, SpeedProfile({0.0}, {0.0}, dir * x), "parked car", false);
+      const int dir = parked.chance(0.8) == (side > 0) ? -1 : 1;
+      addVehicle(parked, Vehicle::Car, side, dir, SpeedProfile({0.0}, {0.0}, dir * x), "parked car", false);
     }
+  }
   // Pedestrians: walkers along the sidewalks and a group crossing at the zebra while the cars wait.
-  auto addPerson = [&](std::function<Eigen::Isometry3d(double)> traj, bool moving) {
+  auto addPerson = [&](Dice& looks, std::function<Eigen::Isometry3d(double)> traj, bool moving) {
     SceneObject o;
     o.name = "person";
-    const int m = s.addMaterial(material(TextureKind::Person, TrainId::Person, dice.seed(), 0.5f, 0.1f,
-                                         {static_cast<float>(dice.uniform(0.08, 0.5)),
-                                          static_cast<float>(dice.uniform(0.1, 0.9))}));
-    o.parts.push_back(part({0.32, 0.5, dice.uniform(1.6, 1.9)}, {0, 0, 0}, m));
+    const int m = s.addMaterial(material(TextureKind::Person, TrainId::Person, looks.seed(), 0.5f, 0.1f,
+                                         {static_cast<float>(looks.uniform(0.08, 0.5)),
+                                          static_cast<float>(looks.uniform(0.1, 0.9))}));
+    o.parts.push_back(part({0.32, 0.5, looks.uniform(1.6, 1.9)}, {0, 0, 0}, m));
     o.T_world_object = std::move(traj);
     o.moving = moving;
     s.addObject(std::move(o));
   };
-  for (double side : {-1.0, 1.0})
-    for (double x = xStart; x < xEnd; x += dice.uniform(3, 10)) {
-      const double y = side * dice.uniform(9.6, 11.4);
-      const double v = dice.chance(0.15) ? 0.0 : dice.uniform(1.0, 1.6) * (dice.chance(0.5) ? 1 : -1);
+  for (double side : {-1.0, 1.0}) {
+    Dice walkers(seed, side > 0 ? 41U : 42U);
+    for (double x = xStart; x < xEnd; x += walkers.uniform(3, 10)) {
+      const double y = side * walkers.uniform(9.6, 11.4);
+      const double v = walkers.chance(0.15) ? 0.0 : walkers.uniform(1.0, 1.6) * (walkers.chance(0.5) ? 1 : -1);
       const double x0 = x;
-      addPerson([x0, y, v](double t) { return poseXYYaw(x0 + v * t, y, v >= 0 ? 0.0 : M_PI); }, v != 0.0);
+      addPerson(walkers, [x0, y, v](double t) { return poseXYYaw(x0 + v * t, y, v >= 0 ? 0.0 : M_PI); }, v != 0.0);
     }
+  }
   for (int k = 0; k < 5; ++k) {
     const double x = stopLine + 1.5 + dice.uniform(0, 3);
     const double dir = (k % 2 == 0) ? 1.0 : -1.0;
@@ -290,7 +304,7 @@ Scenario makeStreet(std::uint32_t seed, double duration) {
     const double v = dice.uniform(1.2, 1.6);
     const double walk = 2 * std::abs(y0) / v;
     const SpeedProfile prof({start, start + 1.0, start + walk, start + walk + 1.0}, {0.0, v, v, 0.0}, 0.0);
-    addPerson([x, y0, dir, prof](double t) { return poseXYYaw(x, y0 + dir * prof.distance(t), dir * M_PI / 2); }, true);
+    addPerson(dice, [x, y0, dir, prof](double t) { return poseXYYaw(x, y0 + dir * prof.distance(t), dir * M_PI / 2); }, true);
   }
 
   Jitter j;

@@ -57,6 +57,7 @@ void SynthOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, 
   const std::string out = cfg.read_string(section, "out_dir", outDir.string());
   outDir = out;
   name = cfg.read_string(section, "name", name);
+  previewFrame = cfg.read_int(section, "preview_frame", previewFrame);
 }
 
 void SynthOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
@@ -77,6 +78,7 @@ void SynthOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const st
   cfg.write(section, "aa_contrast", aaContrast);
   cfg.write(section, "out_dir", outDir.string());
   cfg.write(section, "name", name);
+  cfg.write(section, "preview_frame", previewFrame);
 }
 
 void SynthOptions::check() const {
@@ -126,7 +128,7 @@ nlohmann::json SynthOptions::toJson() const {
   return {{"scenario", scenario}, {"frames", frames}, {"width", width}, {"height", height}, {"fx", fx},
           {"fy", fy}, {"cx", cx}, {"cy", cy}, {"seed", seed}, {"texture", textured}, {"noise_sigma", noiseSigma},
           {"exposure", exposure}, {"supersampling", supersampling}, {"anti_aliasing", antiAliasing}, {"aa_contrast", aaContrast},
-          {"out_dir", outDir.string()}, {"name", effectiveName()}};
+          {"out_dir", outDir.string()}, {"name", effectiveName()}, {"preview_frame", previewFrame}};
 }
 
 // ------------------------------------------------------------------------------------------------ sensor
@@ -241,6 +243,10 @@ SynthSummary SynthApp::run() {
   const ScenarioInfo info = scenarioInfo(o.scenario);
   const int frames = o.frames > 0 ? o.frames : info.defaultFrames;
   const double duration = frames / info.fps;
+  const int previewFrame = o.previewFrame >= 0 ? o.previewFrame : frames / 2;
+  if (!o.preview.empty() && previewFrame >= frames)
+    throw Error("[synth] preview_frame: frame " + std::to_string(previewFrame) + " is beyond the " +
+                std::to_string(frames) + " frames generated");
   const Scenario scenario = makeScenario(o.scenario, o.seed, duration);
   const PinholeCamera cam = o.camera();
   RenderOptions ro;
@@ -269,7 +275,6 @@ SynthSummary SynthApp::run() {
   gt.reserve(static_cast<std::size_t>(frames));
   Progress progress("slam-synth " + name, static_cast<std::size_t>(frames), o.progress);
   const mrpt::img::TCamera tcam = cam.toTCamera();
-  const int previewFrame = frames / 2;
   cv::Mat preview;
   double renderSeconds = 0;
   const cv::Vec3b oneHot[3] = {{255, 0, 0}, {0, 255, 0}, {0, 0, 255}};

@@ -145,6 +145,19 @@ TEST(SynthApp, SameSeedSameBytesOtherSeedDiffers) {
   }
 }
 
+TEST(SynthApp, SequenceLengthDoesNotChangeTheScene) {
+  // The first frames of a street sequence must not depend on how many frames are requested.
+  const Scenario a = makeScenario("street", 9, 2 / 10.0), b = makeScenario("street", 9, 120.0);
+  EXPECT_EQ(b.scene.objects.size(), a.scene.objects.size());
+  SynthOptions o = small("street", "/tmp/unused", 9);
+  const Renderer r(o.camera(), RenderOptions{});
+  for (double t : {0.0, 15.0}) {
+    const RenderedView va = r.render(a.scene, a.T_world_cam(t), t), vb = r.render(b.scene, b.T_world_cam(t), t);
+    EXPECT_EQ(cv::countNonZero(va.radiance != vb.radiance), 0) << "t=" << t;
+    EXPECT_EQ(cv::countNonZero(va.trainId != vb.trainId), 0) << "t=" << t;
+  }
+}
+
 TEST(SynthApp, OutputsFollowTheRawlogContract) {
   const fs::path d = tempDir("contract");
   SynthOptions o = small("street", d, 3, 4);

@@ -37,7 +37,8 @@ struct SynthOptions {
   double aaContrast = 10.0;               ///< adaptive mode: grey-level contrast that triggers supersampling
   std::filesystem::path outDir;
   std::string name;        ///< empty = scenario name
-  std::filesystem::path preview;  ///< optional PNG: image | depth | normals | labels of the middle frame
+  std::filesystem::path preview;  ///< optional PNG: image | depth | normals | labels of one frame
+  int previewFrame = -1;          ///< frame shown in the preview (-1 = the middle frame)
   bool progress = true;
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
