@@ -192,6 +192,40 @@ TEST(TwoViewInitializer, BadInputGivesReasons) {
   EXPECT_THROW(init.initialize(big.pixels_ref, shorter, rng), pslam::Error);
 }
 
+TEST(TwoViewInitializer, AcceptanceRulesReportTheirReasons) {
+  // Each rule is exercised by making it strict on a scene that passes the defaults.
+  const TwoViewScene general = makeScene(SceneShape::General, kR, kTWide, 400, 0.5, 0.2, 31);
+  const TwoViewScene planar = makeScene(SceneShape::Planar, kR, kTPlanar, 400, 0.5, 0.2, 31);
+  auto run = [](const TwoViewScene& s, const TwoViewParams& p) {
+    std::mt19937 rng(1);
+    return TwoViewInitializer(testCamera(), p).initialize(s.pixels_ref, s.pixels_cur, rng);
+  };
+  ASSERT_TRUE(run(general, TwoViewParams{}).success);
+  ASSERT_TRUE(run(planar, TwoViewParams{}).success);
+
+  TwoViewParams needMany;
+  needMany.minTriangulated = 390;  // more than the ~320 true matches
+  EXPECT_EQ(run(general, needMany).failure, TwoViewFailure::TooFewTriangulated);
+
+  TwoViewParams needParallax;
+  needParallax.minParallaxDeg = 30.0;  // the scene has about 10 deg
+  EXPECT_EQ(run(general, needParallax).failure, TwoViewFailure::LowParallax);
+
+  // The other E decompositions explain a handful of points; "similar" at 0.1 % of the best catches them.
+  TwoViewParams strictF;
+  strictF.similarSolutionFractionF = 0.001;
+  const TwoViewResult f = run(general, strictF);
+  EXPECT_EQ(f.failure, TwoViewFailure::Ambiguous) << f.message;
+  EXPECT_GT(f.secondBestGood, 0);
+
+  // A plane seen from two views has a second, "twin" decomposition that explains many points.
+  TwoViewParams strictH;
+  strictH.secondBestFractionH = 0.1;
+  const TwoViewResult h = run(planar, strictH);
+  EXPECT_EQ(h.failure, TwoViewFailure::Ambiguous) << h.message;
+  EXPECT_GT(h.secondBestGood, 0.1 * h.bestGood);
+}
+
 TEST(TwoViewBuildingBlocks, EstimatorsAreExactOnNoiselessData) {
   const TwoViewScene g = makeScene(SceneShape::General, kR, kT, 30, 0.0, 0.0, 21);
   const auto x1 = toEigen(g.pixels_ref), x2 = toEigen(g.pixels_cur);

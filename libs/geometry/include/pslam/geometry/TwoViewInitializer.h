@@ -6,7 +6,9 @@
 // results). The model is chosen by R_H = S_H / (S_H + S_F) > homographyRatioThreshold and decomposed: the
 // 8 Faugeras solutions of H (eq. 2.49-2.54) or the 4 solutions of E = K^T F K (eq. 2.44-2.45); each is
 // triangulated (eq. 2.23) and checked for cheirality, parallax and re-projection error, and the best is
-// accepted only if it is clearly better than the others.
+// accepted only if it is clearly better than the others. Two additions to ORB-SLAM, both switchable:
+// a least-squares refit of each model on its inliers, and a Sampson-error refinement of the best F-based
+// pose (doc/geometry.md has the measured effect).
 //
 // Frames: the reference camera is the world frame. The result (R_cur_ref, t_cur_ref) maps reference
 // camera points into the current camera, X_cur = R X_ref + t, with ||t|| = 1 (scale is unobservable).
