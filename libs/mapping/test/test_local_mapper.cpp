@@ -1,0 +1,464 @@
+// Local mapping on synthetic scenes with known geometry: keypoints are the exact projections of known 3D
+// points, each point has its own random descriptor (one flipped bit per view) and keypoint angle.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include <mrpt/config/CConfigFileMemory.h>
+
+#include "pslam/core/Error.h"
+#include "pslam/mapping/LocalMapper.h"
+
+namespace pslam::mapping {
+namespace {
+
+using map::KeyFrame;
+using map::KeyFrameId;
+using map::MapPointId;
+
+map::CameraIntrinsics camera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
+
+struct Scene {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<cv::Mat> descriptors;
+  std::vector<float> angles;
+  std::vector<MapPointId> mapPointOf;  ///< scene index -> map point (kNoMapPoint if none)
+  std::vector<std::vector<int>> keypointOf;  ///< [keyframe slot][scene index] -> keypoint or -1
+  std::vector<KeyFrameId> keyframes;  ///< slot -> id
+};
+
+Scene makeScene(int numPoints, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(-2.0, 4.0), uy(-1.5, 1.5), uz(4.0, 8.0);
+  std::uniform_int_distribution<int> byte(0, 255);
+  std::uniform_real_distribution<float> angle(0.f, 360.f);
+  Scene s;
+  for (int i = 0; i < numPoints; ++i) {
+    s.points.emplace_back(ux(rng), uy(rng), uz(rng));
+    cv::Mat d(1, 32, CV_8UC1);
+    for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
+    s.descriptors.push_back(d);
+    s.angles.push_back(angle(rng));
+  }
+  s.mapPointOf.assign(numPoints, map::kNoMapPoint);
+  return s;
+}
+
+/// Camera `slot` of a lateral track: 0.25 m steps along x with a slight yaw.
+Eigen::Isometry3d poseOf(int slot) {
+  Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
+  T_world_cam.translation() = Eigen::Vector3d(0.25 * slot, 0.01 * slot, 0.0);
+  T_world_cam.linear() = Eigen::AngleAxisd(0.02 * slot, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  return T_world_cam.inverse();
+}
+
+/// Inserts a keyframe seeing every scene point in `visible` (empty = all) that projects into the image.
+KeyFrameId addKeyFrame(map::Map& map, Scene& s, int slot, std::mt19937& rng, const std::vector<int>& visible = {}) {
+  KeyFrame kf;
+  kf.timestamp = slot;
+  kf.T_cam_world = poseOf(slot);
+  kf.camera = camera();
+  kf.setPyramid(8, 1.2);
+  std::vector<int> keypointOf(s.points.size(), -1);
+  std::vector<cv::Mat> rows;
+  std::uniform_int_distribution<int> bit(0, 255);
+  std::vector<int> which = visible;
+  if (which.empty())
+    for (int i = 0; i < static_cast<int>(s.points.size()); ++i) which.push_back(i);
+  for (int i : which) {
+    const Eigen::Vector3d pc = kf.T_cam_world * s.points[i];
+    if (pc.z() <= 0.1) continue;
+    const Eigen::Vector2d px = kf.camera.project(pc);
+    if (!kf.camera.inImage(px)) continue;
+    keypointOf[i] = static_cast<int>(kf.keypoints.size());
+    kf.keypoints.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, s.angles[i], 1.f, 0);
+    cv::Mat d = s.descriptors[i].clone();
+    const int flip = bit(rng);
+    d.at<uchar>(0, flip / 8) ^= static_cast<uchar>(1 << (flip % 8));
+    rows.push_back(d);
+  }
+  cv::vconcat(rows, kf.descriptors);
+  const KeyFrameId id = map.addKeyFrame(std::move(kf));
+  if (static_cast<int>(s.keypointOf.size()) <= slot) s.keypointOf.resize(slot + 1);
+  s.keypointOf[slot] = keypointOf;
+  if (static_cast<int>(s.keyframes.size()) <= slot) s.keyframes.resize(slot + 1, map::kNoKeyFrame);
+  s.keyframes[slot] = id;
+  return id;
+}
+
+/// Creates map points for scene indices [begin, end) at their true position, anchored in `anchorSlot` and
+/// observed by every slot in `observers` that sees them (the tracker's initial map).
+std::vector<MapPointId> addTruePoints(map::Map& map, Scene& s, int begin, int end, int anchorSlot,
+                                      const std::vector<int>& observers) {
+  std::vector<MapPointId> ids;
+  for (int i = begin; i < end; ++i) {
+    const int k = s.keypointOf[anchorSlot][i];
+    if (k < 0) continue;
+    const MapPointId id = map.addMapPoint(s.keyframes[anchorSlot], k, s.points[i]);
+    for (int o : observers)
+      if (o != anchorSlot && s.keypointOf[o][i] >= 0) map.addObservation(id, s.keyframes[o], s.keypointOf[o][i]);
+    map.computeDistinctiveDescriptor(id);
+    map.updateNormalAndDepth(id);
+    s.mapPointOf[i] = id;
+    ids.push_back(id);
+  }
+  return ids;
+}
+
+/// The tracker's part for a new keyframe: link keypoints of scene points that already have a map point.
+void trackKeyFrame(map::Map& map, Scene& s, int slot) {
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const int k = s.keypointOf[slot][i];
+    const MapPointId id = s.mapPointOf[i];
+    if (k >= 0 && id != map::kNoMapPoint && map.hasMapPoint(id)) map.addObservation(id, s.keyframes[slot], k);
+  }
+}
+
+/// Scene index of a map point through its anchor keypoint (-1 if none matches).
+int sceneIndexOf(const map::Map& map, const Scene& s, MapPointId id) {
+  const map::MapPoint& p = map.mapPoint(id);
+  for (std::size_t slot = 0; slot < s.keyframes.size(); ++slot)
+    if (s.keyframes[slot] == p.anchorKeyFrame)
+      for (std::size_t i = 0; i < s.points.size(); ++i)
+        if (s.keypointOf[slot][i] == static_cast<int>(p.anchorKeypoint)) return static_cast<int>(i);
+  return -1;
+}
+
+LocalMappingParams heuristicParams() {
+  LocalMappingParams p;
+  p.ba.numThreads = 1;
+  return p;
+}
+
+TEST(LocalMappingParams, DefaultsAreOrbSlamAndBadValuesNameTheKey) {
+  LocalMappingParams p;
+  EXPECT_EQ(p.covisibleKeyFrames, 20);
+  EXPECT_EQ(p.maxDescriptorDistance, 50);
+  EXPECT_DOUBLE_EQ(p.nnRatio, 0.6);
+  EXPECT_EQ(p.ba.maxLocalKeyFrames, 20);
+  EXPECT_EQ(p.pointPolicy.model, landmarks::MapPointModel::Heuristic);
+  EXPECT_NO_THROW(p.check());
+  mrpt::config::CConfigFileMemory cfg;
+  cfg.write("LocalMapping", "nnRatio", 1.5);
+  try {
+    LocalMappingParams q;
+    q.loadFromConfigFile(cfg, "LocalMapping");
+    q.check();
+    FAIL() << "nnRatio 1.5 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("nnRatio"), std::string::npos) << e.what();
+  }
+  mrpt::config::CConfigFileMemory cfg2;
+  cfg2.write("LocalMapping", "model", "probabilistic");
+  cfg2.write("LocalMapping", "covisibleKeyframes", 7);
+  LocalMappingParams r;
+  r.loadFromConfigFile(cfg2, "LocalMapping");
+  EXPECT_EQ(r.pointPolicy.model, landmarks::MapPointModel::Probabilistic);
+  EXPECT_EQ(r.covisibleKeyFrames, 7);
+  // Round trip through saveToConfigFile.
+  mrpt::config::CConfigFileMemory cfg3;
+  r.saveToConfigFile(cfg3, "X");
+  LocalMappingParams s;
+  s.loadFromConfigFile(cfg3, "X");
+  EXPECT_EQ(s.covisibleKeyFrames, 7);
+  EXPECT_EQ(s.pointPolicy.model, landmarks::MapPointModel::Probabilistic);
+}
+
+TEST(KeypointStateCodec, RoundTripAndBadInput) {
+  landmarks::KeypointState st;
+  st.mu = 0.25;
+  st.sigma2 = 0.01;
+  st.aObs = 12.5;
+  st.bObs = 9.0;
+  st.semanticNll = {0.1, 2.0, 3.0};
+  st.depthUpdates = 4;
+  st.semanticUpdates = 2;
+  const landmarks::KeypointState back = decodeKeypointState(encodeKeypointState(st), "p");
+  EXPECT_EQ(back.mu, st.mu);
+  EXPECT_EQ(back.sigma2, st.sigma2);
+  EXPECT_EQ(back.aObs, st.aObs);
+  EXPECT_EQ(back.semanticNll, st.semanticNll);
+  EXPECT_EQ(back.depthUpdates, 4u);
+  EXPECT_THROW(decodeKeypointState({1.0, 2.0}, "p"), Error);
+  std::vector<double> v = encodeKeypointState(st);
+  v[1] = std::nan("");
+  EXPECT_THROW(decodeKeypointState(v, "p"), Error);
+}
+
+// Two keyframes share 40 tracked points; 200 further points are seen by both but unmatched.
+TEST(LocalMapper, TriangulatesNewPointsAtTheTruthAnchoredInTheNewKeyFrame) {
+  std::mt19937 rng(3);
+  Scene s = makeScene(240, 11);
+  map::Map map;
+  addKeyFrame(map, s, 0, rng);
+  const KeyFrameId kf1 = addKeyFrame(map, s, 2, rng);  // 0.5 m baseline
+  s.keypointOf.resize(3);
+  addTruePoints(map, s, 0, 40, 0, {0, 2});
+  LocalMapper mapper(map, heuristicParams());
+  const std::vector<MapPointId> created = mapper.createNewMapPoints(kf1);
+  map.checkInvariants("after createNewMapPoints");
+
+  int candidates = 0;
+  for (int i = 40; i < 240; ++i) candidates += s.keypointOf[0][i] >= 0 && s.keypointOf[2][i] >= 0;
+  ASSERT_GT(candidates, 100);
+  EXPECT_GE(static_cast<int>(created.size()), candidates * 8 / 10) << "of " << candidates;
+  const KeyFrame& kf = map.keyFrame(kf1);
+  for (MapPointId id : created) {
+    const map::MapPoint& p = map.mapPoint(id);
+    ASSERT_EQ(p.anchorKeyFrame, kf1);
+    const int i = sceneIndexOf(map, s, id);
+    ASSERT_GE(i, 40) << "point " << id << " not anchored on a new scene point's keypoint";
+    // The other observation is the same scene point (no wrong association).
+    EXPECT_EQ(p.observations.at(s.keyframes[0]), static_cast<std::size_t>(s.keypointOf[0][i]));
+    // Inverse-depth anchoring (eq. 3.1): rho = 1 / distance from the anchor centre, bearing = keypoint ray.
+    const double trueDistance = (s.points[i] - kf.cameraCenter()).norm();
+    EXPECT_NEAR(1.0 / p.inverseDepth, trueDistance, 2e-3 * trueDistance);
+    EXPECT_LT((p.bearing - kf.camera.bearing(kf.pixel(p.anchorKeypoint))).norm(), 1e-6);
+    EXPECT_LT((map.worldPosition(id) - s.points[i]).norm(), 2e-3 * trueDistance);
+  }
+  EXPECT_EQ(mapper.recentPoints().size(), created.size());
+}
+
+TEST(LocalMapper, NoTriangulationWithoutBaseline) {
+  std::mt19937 rng(3);
+  Scene s = makeScene(120, 12);
+  map::Map map;
+  addKeyFrame(map, s, 0, rng);
+  // Same pose twice: baseline 0.
+  KeyFrame copy = map.keyFrame(s.keyframes[0]);
+  const KeyFrameId kf1 = map.addKeyFrame(copy);
+  s.keyframes.push_back(kf1);
+  s.keypointOf.push_back(s.keypointOf[0]);
+  addTruePoints(map, s, 0, 40, 0, {0, 1});
+  LocalMapper mapper(map, heuristicParams());
+  EXPECT_TRUE(mapper.createNewMapPoints(kf1).empty());
+}
+
+// Point i exists twice: A (anchored in slot 0, seen by 0 and 1) and B (anchored in slot 2, seen by 2 only).
+TEST(LocalMapper, SearchInNeighborsFusesDuplicates) {
+  std::mt19937 rng(5);
+  Scene s = makeScene(100, 13);
+  map::Map map;
+  for (int slot = 0; slot < 3; ++slot) addKeyFrame(map, s, slot, rng);
+  addTruePoints(map, s, 0, 50, 0, {0, 1, 2});
+  addTruePoints(map, s, 50, 100, 0, {0, 1});
+  std::vector<MapPointId> duplicates;
+  for (int i = 50; i < 100; ++i) {
+    const int k = s.keypointOf[2][i];
+    if (k < 0 || s.mapPointOf[i] == map::kNoMapPoint) continue;
+    // Slightly off the truth, as a second triangulation would be.
+    const MapPointId b = map.addMapPoint(s.keyframes[2], k, s.points[i] + Eigen::Vector3d(0.002, -0.001, 0.003));
+    map.computeDistinctiveDescriptor(b);
+    map.updateNormalAndDepth(b);
+    duplicates.push_back(b);
+  }
+  ASSERT_GT(duplicates.size(), 20u);
+  const std::size_t before = map.numMapPoints();
+  LocalMapper mapper(map, heuristicParams());
+  const int fused = mapper.searchInNeighbors(s.keyframes[2]);
+  map.checkInvariants("after searchInNeighbors");
+  EXPECT_EQ(fused, static_cast<int>(duplicates.size()));
+  EXPECT_EQ(map.numMapPoints(), before - duplicates.size());
+  for (MapPointId b : duplicates) EXPECT_FALSE(map.hasMapPoint(b));
+  for (int i = 50; i < 100; ++i) {
+    if (s.keypointOf[2][i] < 0 || s.mapPointOf[i] == map::kNoMapPoint) continue;
+    const map::MapPoint& a = map.mapPoint(s.mapPointOf[i]);  // the better-observed one is kept
+    EXPECT_EQ(a.observations.at(s.keyframes[2]), static_cast<std::size_t>(s.keypointOf[2][i]));
+  }
+}
+
+TEST(LocalMapper, CullsRecentPointsWithLowFoundRatioOrFewObservers) {
+  std::mt19937 rng(7);
+  Scene s = makeScene(80, 14);
+  map::Map map;
+  for (int slot = 0; slot < 4; ++slot) addKeyFrame(map, s, slot, rng);
+  // Points created in keyframe 0: 0-29 seen by all 4 (healthy), 30-49 only by 0 and 1 (too few observers
+  // after two keyframes), 50-79 seen by all but with a low found/visible ratio.
+  const auto healthy = addTruePoints(map, s, 0, 30, 0, {0, 1, 2, 3});
+  const auto fewObservers = addTruePoints(map, s, 30, 50, 0, {0, 1});
+  const auto lowRatio = addTruePoints(map, s, 50, 80, 0, {0, 1, 2, 3});
+  for (MapPointId id : lowRatio) {
+    map.mutableMapPoint(id).visibleCount = 10;
+    map.mutableMapPoint(id).foundCount = 2;  // 0.2 < 0.25
+  }
+  for (MapPointId id : healthy) {
+    map.mutableMapPoint(id).visibleCount = 10;
+    map.mutableMapPoint(id).foundCount = 3;  // 0.3
+  }
+  std::vector<MapPointId> all = healthy;
+  all.insert(all.end(), fewObservers.begin(), fewObservers.end());
+  all.insert(all.end(), lowRatio.begin(), lowRatio.end());
+  LocalMapper mapper(map, heuristicParams());
+  mapper.processNewKeyFrame(s.keyframes[3], all);
+  const int culled = mapper.cullRecentPoints(s.keyframes[2]);  // keyframe id 2: 2 keyframes after creation
+  map.checkInvariants("after cullRecentPoints");
+  EXPECT_EQ(culled, static_cast<int>(fewObservers.size() + lowRatio.size()));
+  for (MapPointId id : healthy) EXPECT_TRUE(map.hasMapPoint(id));
+  for (MapPointId id : fewObservers) EXPECT_FALSE(map.hasMapPoint(id));
+  for (MapPointId id : lowRatio) EXPECT_FALSE(map.hasMapPoint(id));
+  // One keyframe earlier the observer rule does not apply yet.
+  map::Map map2;
+  Scene s2 = makeScene(80, 14);
+  std::mt19937 rng2(7);
+  for (int slot = 0; slot < 2; ++slot) addKeyFrame(map2, s2, slot, rng2);
+  const auto young = addTruePoints(map2, s2, 30, 50, 0, {0, 1});
+  LocalMapper mapper2(map2, heuristicParams());
+  mapper2.processNewKeyFrame(s2.keyframes[1], young);
+  EXPECT_EQ(mapper2.cullRecentPoints(s2.keyframes[1]), 0);
+}
+
+TEST(LocalMapper, CullsARedundantKeyFrameButNeverTheFirstTwo) {
+  std::mt19937 rng(9);
+  Scene s = makeScene(90, 15);
+  map::Map map;
+  for (int slot = 0; slot < 5; ++slot) addKeyFrame(map, s, slot, rng);
+  // 0-59 seen by every keyframe: redundant everywhere. 60-89 seen only by slots 3 and 4.
+  addTruePoints(map, s, 0, 60, 0, {0, 1, 2, 3, 4});
+  addTruePoints(map, s, 60, 90, 3, {3, 4});
+  int unique3 = 0;
+  for (int i = 60; i < 90; ++i) unique3 += s.keypointOf[3][i] >= 0;
+  ASSERT_GT(unique3, 10);
+  LocalMapper mapper(map, heuristicParams());
+  const int culled = mapper.cullKeyFrames(s.keyframes[4]);
+  map.checkInvariants("after cullKeyFrames");
+  EXPECT_EQ(culled, 1);
+  EXPECT_FALSE(map.hasKeyFrame(s.keyframes[2]));
+  EXPECT_TRUE(map.hasKeyFrame(s.keyframes[0]));
+  EXPECT_TRUE(map.hasKeyFrame(s.keyframes[1]));
+  EXPECT_TRUE(map.hasKeyFrame(s.keyframes[3]));  // its own points are seen by one other keyframe only
+  EXPECT_TRUE(map.hasKeyFrame(s.keyframes[4]));
+}
+
+// Six keyframes see 150 points; the window is the newest keyframe and its 2 best neighbours, the other
+// three are fixed (they fix the monocular gauge, scale included). Inverse depths and the newest pose are perturbed,
+// the pixels are exact: BA must bring the reprojection error and the 3D error down.
+TEST(LocalMapper, LocalBundleAdjustmentReducesReprojectionError) {
+  std::mt19937 rng(21);
+  Scene s = makeScene(150, 16);
+  map::Map map;
+  for (int slot = 0; slot < 6; ++slot) addKeyFrame(map, s, slot, rng);
+  const auto ids = addTruePoints(map, s, 0, 150, 0, {0, 1, 2, 3, 4, 5});
+  // Points have one degree of freedom (eq. 3.1: the ray of the anchor keypoint is fixed), so the error is
+  // put into the inverse depth.
+  std::normal_distribution<double> n(0.0, 0.05);
+  for (MapPointId id : ids) map.setInverseDepth(id, map.mapPoint(id).inverseDepth * (1.0 + n(rng)));
+  Eigen::Isometry3d T = map.keyFrame(s.keyframes[5]).T_cam_world;
+  T.translation() += Eigen::Vector3d(0.02, -0.01, 0.01);
+  map.setKeyFramePose(s.keyframes[5], T);
+  auto meanError = [&] {
+    double e = 0;
+    int count = 0;
+    for (int i = 0; i < 150; ++i)
+      if (s.mapPointOf[i] != map::kNoMapPoint && map.hasMapPoint(s.mapPointOf[i])) {
+        e += (map.worldPosition(s.mapPointOf[i]) - s.points[i]).norm();
+        ++count;
+      }
+    return e / count;
+  };
+  const double before = meanError();
+  LocalMappingParams params = heuristicParams();
+  params.ba.maxLocalKeyFrames = 3;
+  LocalMapper mapper(map, params);
+  optimize::BAResult result;
+  mapper.runLocalBundleAdjustment(s.keyframes[5], &result);
+  map.checkInvariants("after local BA");
+  EXPECT_GT(result.initialRmsPixels, 1.0);
+  EXPECT_LT(result.finalRmsPixels, 0.1 * result.initialRmsPixels)
+      << result.initialRmsPixels << " -> " << result.finalRmsPixels;
+  EXPECT_LT(meanError(), 0.5 * before) << before << " -> " << meanError();
+  EXPECT_LT((map.keyFrame(s.keyframes[5]).cameraCenter() - poseOf(5).inverse().translation()).norm(), 0.01);
+}
+
+/// Tracker + local mapping over `numSlots` keyframes; the first two come with an initial map of 60 points.
+map::Map runSequence(const LocalMappingParams& params, int numSlots, std::vector<LocalMappingReport>* reports,
+                     Scene* sceneOut = nullptr) {
+  std::mt19937 rng(31);
+  Scene s = makeScene(300, 17);
+  map::Map map;
+  addKeyFrame(map, s, 0, rng);
+  addKeyFrame(map, s, 1, rng);
+  const auto initial = addTruePoints(map, s, 0, 60, 0, {0, 1});
+  LocalMapper mapper(map, params);
+  mapper.processKeyFrame(s.keyframes[0], {});
+  map.checkInvariants("slot 0");
+  reports->push_back(mapper.processKeyFrame(s.keyframes[1], initial));
+  map.checkInvariants("slot 1");
+  for (int slot = 2; slot < numSlots; ++slot) {
+    addKeyFrame(map, s, slot, rng);
+    trackKeyFrame(map, s, slot);
+    reports->push_back(mapper.processKeyFrame(s.keyframes[slot], {}));
+    map.checkInvariants("slot " + std::to_string(slot));
+    // The tracker learns the new points' scene identity through their anchor keypoint.
+    for (const auto& [id, p] : map.mapPoints()) {
+      const int i = sceneIndexOf(map, s, id);
+      if (i >= 0 && (s.mapPointOf[i] == map::kNoMapPoint || !map.hasMapPoint(s.mapPointOf[i]))) s.mapPointOf[i] = id;
+    }
+  }
+  if (sceneOut) *sceneOut = s;
+  return map;
+}
+
+TEST(LocalMapper, SequenceKeepsInvariantsGrowsAnAccurateMapAndIsDeterministic) {
+  std::vector<LocalMappingReport> r1, r2;
+  Scene s;
+  const map::Map a = runSequence(heuristicParams(), 6, &r1, &s);
+  const map::Map b = runSequence(heuristicParams(), 6, &r2);
+  EXPECT_TRUE(a == b) << "same input gave different maps";
+  int created = 0;
+  for (const auto& r : r1) created += r.newPoints;
+  EXPECT_GT(created, 100);
+  EXPECT_GT(a.numMapPoints(), 160u);
+  // Every point is at its scene point (exact pixels: triangulation and BA keep it there).
+  int checked = 0;
+  for (const auto& [id, p] : a.mapPoints()) {
+    const int i = sceneIndexOf(a, s, id);
+    ASSERT_GE(i, 0);
+    EXPECT_LT((a.worldPosition(id) - s.points[i]).norm(), 0.01) << "point " << id;
+    ++checked;
+  }
+  EXPECT_GT(checked, 0);
+}
+
+TEST(LocalMapper, ProbabilisticModelUpdatesPointStatesAndActivatesConsistentPoints) {
+  LocalMappingParams params = heuristicParams();
+  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
+  std::vector<LocalMappingReport> reports;
+  Scene s;
+  const map::Map m = runSequence(params, 12, &reports, &s);
+  int updates = 0;
+  for (const auto& r : reports) updates += r.landmarkUpdates;
+  EXPECT_GT(updates, 100);
+  landmarks::KeypointModel model(params.keypointModel);
+  const double freshPhi = model.inlierRatio(model.initialize(0.2, 1e-4));
+  ASSERT_LT(freshPhi, params.keypointModel.psiMin);  // a = b = 10: new points start inactive
+  int withState = 0, measured = 0, active = 0, updatedOften = 0;
+  for (const auto& [id, p] : m.mapPoints()) {
+    if (p.landmarkState.empty()) continue;
+    ++withState;
+    const landmarks::KeypointState st = decodeKeypointState(p.landmarkState, "test");
+    // The filter's inverse depth agrees with the (exact) geometry.
+    EXPECT_NEAR(st.mu, p.inverseDepthAlongZ(), 0.02 * p.inverseDepthAlongZ()) << "point " << id;
+    if (st.depthUpdates == 0) continue;
+    ++measured;
+    // Consistent measurements only ever raise the inlier ratio.
+    EXPECT_GT(model.inlierRatio(st), freshPhi) << "point " << id;
+    // Each inlier adds about one count to a_obs, so phi passes psi_min = 0.6 after a handful (Table 3.2).
+    if (st.depthUpdates >= 8) {
+      ++updatedOften;
+      active += model.isActive(st);
+    }
+  }
+  EXPECT_GT(withState, 100);
+  EXPECT_GT(measured, 100);
+  ASSERT_GT(updatedOften, 20);
+  EXPECT_EQ(active, updatedOften);
+}
+
+TEST(LocalMapper, UnknownKeyFrameIsAnError) {
+  map::Map map;
+  LocalMapper mapper(map, heuristicParams());
+  EXPECT_THROW(mapper.processKeyFrame(42, {}), Error);
+}
+
+}  // namespace
+}  // namespace pslam::mapping
