@@ -294,7 +294,12 @@ SynthSummary SynthApp::run() {
     sum.renderCpuSeconds += double(std::clock() - c0) / CLOCKS_PER_SEC;
     sum.timings.add("render", 1000 * dt);
 
-    ScopedStage stage(sum.timings, "encode_write");
+    auto tStage = std::chrono::steady_clock::now();
+    auto stageDone = [&](const char* stage) {
+      const auto now = std::chrono::steady_clock::now();
+      sum.timings.add(stage, std::chrono::duration<double, std::milli>(now - tStage).count());
+      tStage = now;
+    };
     datasets::Frame f;
     f.timestamp = stamp;
     f.camera = tcam;
@@ -305,6 +310,7 @@ SynthSummary SynthApp::run() {
     f.semantic.create(cam.height, cam.width, CV_8UC3);
     f.normals.create(cam.height, cam.width, CV_8UC3);
     std::size_t dynamicPx = 0, skyPx = 0, validPx = 0;
+    const double invDepthUnit = 1.0 / info.depthUnit;
     for (int y = 0; y < cam.height; ++y) {
       const float* z = view.depth.ptr<float>(y);
       const cv::Vec3f* n = view.normals.ptr<cv::Vec3f>(y);
@@ -312,24 +318,38 @@ SynthSummary SynthApp::run() {
       auto* dOut = f.depth.ptr<std::uint16_t>(y);
       auto* sOut = f.semantic.ptr<cv::Vec3b>(y);
       auto* nOut = f.normals.ptr<cv::Vec3b>(y);
+      cv::Vec3f lastNormal(0, 0, 0);
+      cv::Vec3b lastEncoded(0, 0, 0);
       for (int x = 0; x < cam.width; ++x) {
-        const double units = z[x] > 0 ? std::round(z[x] / info.depthUnit) : 0.0;
+        const double units = z[x] > 0 ? std::floor(z[x] * invDepthUnit + 0.5) : 0.0;
         dOut[x] = (units >= 1 && units <= 65535) ? static_cast<std::uint16_t>(units) : 0;  // out of range: invalid
         validPx += dOut[x] != 0;
         const int group = semanticGroupOfTrainId(cls[x]);
         sOut[x] = oneHot[group];
         dynamicPx += group == 1;
         skyPx += cls[x] == static_cast<std::uint8_t>(TrainId::Sky);
-        nOut[x] = z[x] > 0 ? datasets::encodeNormal(cv::Vec3d(n[x][0], n[x][1], n[x][2])) : cv::Vec3b(0, 0, 0);
+        if (z[x] > 0) {
+          // Surfaces are planar: runs of identical normals are encoded once.
+          if (n[x] != lastNormal) {
+            lastNormal = n[x];
+            lastEncoded = datasets::encodeNormal(cv::Vec3d(n[x][0], n[x][1], n[x][2]));
+          }
+          nOut[x] = lastEncoded;
+        } else {
+          nOut[x] = cv::Vec3b(0, 0, 0);
+        }
       }
     }
+    stageDone("channels");
     writer.write(f);
+    stageDone("rawlog_write");
     char labelName[64];
     std::snprintf(labelName, sizeof(labelName), "LABEL_%06d.png", i);
     const fs::path labelFile = labelsOut.tempPath() / labelName;
     if (!cv::imwrite(labelFile.string(), view.trainId))
       throw Error(sum.labelsDir.string() + ": cannot write " + labelName);
     gt.emplace_back(stamp, T_world_cam);
+    stageDone("labels_write");
 
     const double npx = double(cam.width) * cam.height;
     sum.meanDynamicFraction += dynamicPx / npx;
@@ -338,6 +358,7 @@ SynthSummary SynthApp::run() {
     std::vector<cv::KeyPoint> corners;
     cv::FAST(f.image, corners, 20, true);
     sum.meanFastCorners += static_cast<double>(corners.size());
+    stageDone("fast_corners");
     if (i == previewFrame && !o.preview.empty()) preview = makePreviewPanel(f.image, view.depth, view.normals, view.trainId);
     progress.update(static_cast<std::size_t>(i + 1));
   }

@@ -317,9 +317,10 @@ float fractalNoise(double x, double y, std::uint32_t seed, double baseFrequency,
   for (int o = 0; o < octaves; ++o) {
     norm += amp;
     if (active) {
-      // Fade octaves whose wavelength approaches two footprints (Nyquist): r in [0.25, 0.5] -> weight 1..0.
+      // Fade octaves as their nominal frequency nears Nyquist (0.5 cycles per footprint): value noise has
+      // energy up to about twice its nominal frequency, so the fade runs over r in [0.15, 0.3].
       const float r = f * fp;
-      const float w = r < 0.25f ? 1.0f : (r > 0.5f ? 0.0f : (0.5f - r) * 4.0f);
+      const float w = r < 0.15f ? 1.0f : (r > 0.3f ? 0.0f : (0.3f - r) * (1.0f / 0.15f));
       if (w <= 0) active = false;
       else sum += amp * w * (valueNoiseInline(x * f + 17.13 * o, y * f - 9.71 * o, seed + 101U * o) - 0.5f);
     }

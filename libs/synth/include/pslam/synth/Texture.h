@@ -65,7 +65,8 @@ float albedoAt(const Material& material, const SurfacePoint& p);
 /// Smooth value noise in [0,1] on the integer lattice hashed with `seed`.
 float valueNoise(double x, double y, std::uint32_t seed);
 /// Fractal sum of `octaves` value-noise octaves starting at `baseFrequency` cycles/m, centred on 0 (range
-/// about [-1,1], std about 0.25); octaves finer than two footprints fade out so the mean is kept and nothing aliases.
+/// about [-1,1], std about 0.25); octaves near the Nyquist limit of the footprint fade out, so the mean is kept
+/// and nothing aliases.
 float fractalNoise(double x, double y, std::uint32_t seed, double baseFrequency, int octaves, double footprint);
 /// Smooth 1-D noise in [-1,1] (for exposure drift, handheld jitter), C1 in x.
 double smoothNoise1D(double x, std::uint32_t seed);
