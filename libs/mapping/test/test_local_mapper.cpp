@@ -8,6 +8,7 @@
 
 #include "pslam/core/Error.h"
 #include "pslam/mapping/LocalMapper.h"
+#include "SyntheticScene.h"
 
 namespace pslam::mapping {
 namespace {
@@ -16,113 +17,7 @@ using map::KeyFrame;
 using map::KeyFrameId;
 using map::MapPointId;
 
-map::CameraIntrinsics camera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
-
-struct Scene {
-  std::vector<Eigen::Vector3d> points;
-  std::vector<cv::Mat> descriptors;
-  std::vector<float> angles;
-  std::vector<MapPointId> mapPointOf;  ///< scene index -> map point (kNoMapPoint if none)
-  std::vector<std::vector<int>> keypointOf;  ///< [keyframe slot][scene index] -> keypoint or -1
-  std::vector<KeyFrameId> keyframes;  ///< slot -> id
-};
-
-Scene makeScene(int numPoints, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> ux(-2.0, 4.0), uy(-1.5, 1.5), uz(4.0, 8.0);
-  std::uniform_int_distribution<int> byte(0, 255);
-  std::uniform_real_distribution<float> angle(0.f, 360.f);
-  Scene s;
-  for (int i = 0; i < numPoints; ++i) {
-    s.points.emplace_back(ux(rng), uy(rng), uz(rng));
-    cv::Mat d(1, 32, CV_8UC1);
-    for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
-    s.descriptors.push_back(d);
-    s.angles.push_back(angle(rng));
-  }
-  s.mapPointOf.assign(numPoints, map::kNoMapPoint);
-  return s;
-}
-
-/// Camera `slot` of a lateral track: 0.25 m steps along x with a slight yaw.
-Eigen::Isometry3d poseOf(int slot) {
-  Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
-  T_world_cam.translation() = Eigen::Vector3d(0.25 * slot, 0.01 * slot, 0.0);
-  T_world_cam.linear() = Eigen::AngleAxisd(0.02 * slot, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  return T_world_cam.inverse();
-}
-
-/// Inserts a keyframe seeing every scene point in `visible` (empty = all) that projects into the image.
-KeyFrameId addKeyFrame(map::Map& map, Scene& s, int slot, std::mt19937& rng, const std::vector<int>& visible = {}) {
-  KeyFrame kf;
-  kf.timestamp = slot;
-  kf.T_cam_world = poseOf(slot);
-  kf.camera = camera();
-  kf.setPyramid(8, 1.2);
-  std::vector<int> keypointOf(s.points.size(), -1);
-  std::vector<cv::Mat> rows;
-  std::uniform_int_distribution<int> bit(0, 255);
-  std::vector<int> which = visible;
-  if (which.empty())
-    for (int i = 0; i < static_cast<int>(s.points.size()); ++i) which.push_back(i);
-  for (int i : which) {
-    const Eigen::Vector3d pc = kf.T_cam_world * s.points[i];
-    if (pc.z() <= 0.1) continue;
-    const Eigen::Vector2d px = kf.camera.project(pc);
-    if (!kf.camera.inImage(px)) continue;
-    keypointOf[i] = static_cast<int>(kf.keypoints.size());
-    kf.keypoints.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, s.angles[i], 1.f, 0);
-    cv::Mat d = s.descriptors[i].clone();
-    const int flip = bit(rng);
-    d.at<uchar>(0, flip / 8) ^= static_cast<uchar>(1 << (flip % 8));
-    rows.push_back(d);
-  }
-  cv::vconcat(rows, kf.descriptors);
-  const KeyFrameId id = map.addKeyFrame(std::move(kf));
-  if (static_cast<int>(s.keypointOf.size()) <= slot) s.keypointOf.resize(slot + 1);
-  s.keypointOf[slot] = keypointOf;
-  if (static_cast<int>(s.keyframes.size()) <= slot) s.keyframes.resize(slot + 1, map::kNoKeyFrame);
-  s.keyframes[slot] = id;
-  return id;
-}
-
-/// Creates map points for scene indices [begin, end) at their true position, anchored in `anchorSlot` and
-/// observed by every slot in `observers` that sees them (the tracker's initial map).
-std::vector<MapPointId> addTruePoints(map::Map& map, Scene& s, int begin, int end, int anchorSlot,
-                                      const std::vector<int>& observers) {
-  std::vector<MapPointId> ids;
-  for (int i = begin; i < end; ++i) {
-    const int k = s.keypointOf[anchorSlot][i];
-    if (k < 0) continue;
-    const MapPointId id = map.addMapPoint(s.keyframes[anchorSlot], k, s.points[i]);
-    for (int o : observers)
-      if (o != anchorSlot && s.keypointOf[o][i] >= 0) map.addObservation(id, s.keyframes[o], s.keypointOf[o][i]);
-    map.computeDistinctiveDescriptor(id);
-    map.updateNormalAndDepth(id);
-    s.mapPointOf[i] = id;
-    ids.push_back(id);
-  }
-  return ids;
-}
-
-/// The tracker's part for a new keyframe: link keypoints of scene points that already have a map point.
-void trackKeyFrame(map::Map& map, Scene& s, int slot) {
-  for (std::size_t i = 0; i < s.points.size(); ++i) {
-    const int k = s.keypointOf[slot][i];
-    const MapPointId id = s.mapPointOf[i];
-    if (k >= 0 && id != map::kNoMapPoint && map.hasMapPoint(id)) map.addObservation(id, s.keyframes[slot], k);
-  }
-}
-
-/// Scene index of a map point through its anchor keypoint (-1 if none matches).
-int sceneIndexOf(const map::Map& map, const Scene& s, MapPointId id) {
-  const map::MapPoint& p = map.mapPoint(id);
-  for (std::size_t slot = 0; slot < s.keyframes.size(); ++slot)
-    if (s.keyframes[slot] == p.anchorKeyFrame)
-      for (std::size_t i = 0; i < s.points.size(); ++i)
-        if (s.keypointOf[slot][i] == static_cast<int>(p.anchorKeypoint)) return static_cast<int>(i);
-  return -1;
-}
+using namespace pslam::mapping::testing;
 
 LocalMappingParams heuristicParams() {
   LocalMappingParams p;
@@ -379,20 +274,17 @@ map::Map runSequence(const LocalMappingParams& params, int numSlots, std::vector
   addKeyFrame(map, s, 1, rng);
   const auto initial = addTruePoints(map, s, 0, 60, 0, {0, 1});
   LocalMapper mapper(map, params);
-  mapper.processKeyFrame(s.keyframes[0], {});
+  reports->push_back(mapper.processKeyFrame(s.keyframes[0], {}));
   map.checkInvariants("slot 0");
   reports->push_back(mapper.processKeyFrame(s.keyframes[1], initial));
+  learnMapPoints(map, s);
   map.checkInvariants("slot 1");
   for (int slot = 2; slot < numSlots; ++slot) {
     addKeyFrame(map, s, slot, rng);
     trackKeyFrame(map, s, slot);
     reports->push_back(mapper.processKeyFrame(s.keyframes[slot], {}));
     map.checkInvariants("slot " + std::to_string(slot));
-    // The tracker learns the new points' scene identity through their anchor keypoint.
-    for (const auto& [id, p] : map.mapPoints()) {
-      const int i = sceneIndexOf(map, s, id);
-      if (i >= 0 && (s.mapPointOf[i] == map::kNoMapPoint || !map.hasMapPoint(s.mapPointOf[i]))) s.mapPointOf[i] = id;
-    }
+    learnMapPoints(map, s);
   }
   if (sceneOut) *sceneOut = s;
   return map;
@@ -410,9 +302,11 @@ TEST(LocalMapper, SequenceKeepsInvariantsGrowsAnAccurateMapAndIsDeterministic) {
   EXPECT_GT(a.numMapPoints(), 160u);
   // Every point is at its scene point (exact pixels: triangulation and BA keep it there).
   int checked = 0;
+  std::vector<int> mapPointsOfScene(s.points.size(), 0);
   for (const auto& [id, p] : a.mapPoints()) {
     const int i = sceneIndexOf(a, s, id);
     ASSERT_GE(i, 0);
+    EXPECT_EQ(++mapPointsOfScene[i], 1) << "scene point " << i << " mapped twice";
     EXPECT_LT((a.worldPosition(id) - s.points[i]).norm(), 0.01) << "point " << id;
     ++checked;
   }
