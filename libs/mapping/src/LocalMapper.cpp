@@ -496,7 +496,18 @@ optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId
   if (problem.observations.empty() || !anyFree) return {};
   const optimize::BAResult result = optimize::localBundleAdjustment(problem, params_.ba);
   if (resultOut) *resultOut = result;
-  return optimize::applyResult(map_, problem, result, true);
+  const optimize::MapUpdateSummary summary = optimize::applyResult(map_, problem, result, true);
+  // §3.4.3: "after the bundle adjustment we update our probabilistic model with the refined depth
+  // estimates": the filter mean takes the refined inverse depth; its variance and inlier counts are kept.
+  if (model() != landmarks::MapPointModel::Heuristic)
+    for (const auto& [id, rho] : result.inverseDepths) {
+      if (!map_.hasMapPoint(id) || map_.mapPoint(id).landmarkState.empty()) continue;
+      MapPoint& p = map_.mutableMapPoint(id);
+      landmarks::KeypointState st = decodeKeypointState(p.landmarkState, "map point " + std::to_string(id));
+      st.mu = p.inverseDepthAlongZ();
+      p.landmarkState = encodeKeypointState(st);
+    }
+  return summary;
 }
 
 // ------------------------------------------------------------------------------------ 6. KeyFrameCulling

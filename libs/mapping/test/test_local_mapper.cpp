@@ -348,6 +348,51 @@ TEST(LocalMapper, ProbabilisticModelUpdatesPointStatesAndActivatesConsistentPoin
   EXPECT_EQ(active, updatedOften);
 }
 
+// Masking model: points whose semantic evidence says "dynamic" are inactive and left out of local BA.
+TEST(LocalMapper, MaskingModelDeactivatesDynamicPointsAndKeepsThemOutOfBundleAdjustment) {
+  std::mt19937 rng(41);
+  Scene s = makeScene(120, 18);
+  map::Map map;
+  for (int slot = 0; slot < 3; ++slot) {
+    const KeyFrameId id = addKeyFrame(map, s, slot, rng);
+    KeyFrame& kf = map.mutableKeyFrame(id);
+    kf.semanticProbabilities.assign(kf.numKeypoints(), {0.9f, 0.05f, 0.05f});
+    for (int i = 0; i < 20; ++i)
+      if (s.keypointOf[slot][i] >= 0) kf.semanticProbabilities[s.keypointOf[slot][i]] = {0.05f, 0.9f, 0.05f};
+  }
+  const auto ids = addTruePoints(map, s, 0, 60, 0, {0, 1, 2});
+  LocalMappingParams params = heuristicParams();
+  params.pointPolicy.model = landmarks::MapPointModel::Masking;
+  LocalMapper mapper(map, params);
+  for (int slot = 0; slot < 3; ++slot) mapper.processNewKeyFrame(s.keyframes[slot], {});
+  int dynamicSeen = 0;
+  for (int i = 0; i < 60; ++i) {
+    const MapPointId id = s.mapPointOf[i];
+    if (id == map::kNoMapPoint) continue;
+    EXPECT_EQ(mapper.isActive(id), i >= 20) << "scene point " << i;
+    dynamicSeen += i < 20;
+  }
+  ASSERT_GT(dynamicSeen, 5);
+  // Perturbed inverse depths: BA moves the static (active) points only.
+  std::map<MapPointId, double> before;
+  for (MapPointId id : ids) {
+    map.setInverseDepth(id, map.mapPoint(id).inverseDepth * 1.05);
+    before[id] = map.mapPoint(id).inverseDepth;
+  }
+  mapper.runLocalBundleAdjustment(s.keyframes[2]);
+  map.checkInvariants("after masked BA");
+  int movedStatic = 0;
+  for (int i = 0; i < 60; ++i) {
+    const MapPointId id = s.mapPointOf[i];
+    if (id == map::kNoMapPoint) continue;
+    if (i < 20)
+      EXPECT_EQ(map.mapPoint(id).inverseDepth, before[id]) << "inactive point " << i << " was optimized";
+    else
+      movedStatic += map.mapPoint(id).inverseDepth != before[id];
+  }
+  EXPECT_GT(movedStatic, 20);
+}
+
 TEST(LocalMapper, UnknownKeyFrameIsAnError) {
   map::Map map;
   LocalMapper mapper(map, heuristicParams());
