@@ -1,0 +1,40 @@
+#pragma once
+// All parameters of a SLAM run, one ini section per component (DESIGN.md §5):
+//   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
+//   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
+//   [LocalMapping] BuiltinMappingParams   [System] threaded
+#include <string>
+
+#include <mrpt/config/CConfigFileBase.h>
+
+#include "pslam/features/OrbExtractor.h"
+#include "pslam/optimize/Params.h"
+#include "pslam/system/KeyFrameMapper.h"
+#include "pslam/tracking/MonocularInitializer.h"
+#include "pslam/tracking/Tracker.h"
+
+namespace pslam::system {
+
+struct SlamParams {
+  features::OrbParams orb;
+  tracking::InitializerParams initializer;
+  tracking::TrackerParams tracking;
+  optimize::PoseOptimizationParams poseOptimization;
+  optimize::BundleAdjustmentParams bundleAdjustment;
+  BuiltinMappingParams mapping;
+  bool threaded = false;  ///< [System] threaded: mapping in a second thread (live use); false = deterministic
+  std::string localMapper = "auto";  ///< [System] localMapper: auto | builtin | mapping (libs/mapping)
+  std::string sourceIni;  ///< text of the loaded ini (components outside this struct read their keys from it)
+
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg) const;
+  /// Throws pslam::Error naming the section and key of the first invalid value.
+  void check() const;
+  /// Effective configuration as ini text (for the run report).
+  std::string toIniText() const;
+};
+
+/// Loads and checks an ini file; errors name the file.
+SlamParams loadSlamParams(const std::string& iniPath);
+
+}  // namespace pslam::system

@@ -1,0 +1,52 @@
+#pragma once
+// The slam-run application: rawlog + ini + seed + frame range -> the outputs of DESIGN.md §4 in an output folder:
+//   trajectory.txt  every tracked frame (TUM, camera-to-world), frame poses expressed relative to their
+//                   reference keyframe and composed with its final (bundle-adjusted) pose, as ORB-SLAM saves them
+//   keyframes.txt   keyframe poses (TUM)
+//   map.slammap     the map (map::saveMap)
+//   report.json     effective config, per-frame status and counts, per-stage timings, summary
+// Every file is written atomically.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace pslam::system {
+
+struct SlamRunOptions {
+  std::filesystem::path config;
+  std::filesystem::path rawlog;
+  std::filesystem::path outDir;
+  std::uint32_t seed = 0;
+  std::size_t first = 0;        ///< first frame index (0-based, inclusive)
+  long long last = -1;          ///< last frame index (inclusive), < 0 = to the end
+  bool threaded = false;        ///< overrides [System] threaded when set
+  bool progress = true;
+};
+
+struct SlamRunSummary {
+  std::size_t framesRead = 0, framesProcessed = 0, framesTracked = 0, framesLost = 0, relocalizations = 0;
+  long long initializedAtFrame = -1;
+  std::size_t keyFrames = 0, mapPoints = 0, resets = 0;
+  double wallSeconds = 0, cpuSeconds = 0;
+  bool initialized() const { return initializedAtFrame >= 0; }
+  nlohmann::json toJson() const;
+  std::string toText() const;
+};
+
+class SlamRunApp {
+ public:
+  explicit SlamRunApp(SlamRunOptions options);
+  /// Throws pslam::Error for bad input: missing/invalid config, rawlog without CAMERA, missing intrinsics,
+  /// images that change size.
+  SlamRunSummary run();
+
+ private:
+  SlamRunOptions options_;
+};
+
+/// Process CPU time (all threads) in seconds.
+double processCpuSeconds();
+
+}  // namespace pslam::system
