@@ -90,10 +90,19 @@ void LocalMapper::reset() { recent_.clear(); }
 landmarks::MapPointModel LocalMapper::model() const { return params_.pointPolicy.model; }
 
 namespace {
-/// What the policy sees of a map point: its counters and, if any, its keypoint-model state.
-landmarks::MapPointRecord recordOf(const MapPoint& p) {
+/// SVO's initial seed spread: the whole inverse-depth range is +-3 sigma.
+double initialVariance(const landmarks::KeypointModelParams& p) {
+  const double range = p.inverseDepthMax - p.inverseDepthMin;
+  return range * range / 36.0;
+}
+
+/// What the policy sees of a map point: its counters and its keypoint-model state (a point without state
+/// has seen no evidence yet: the model's initial state at its current depth).
+landmarks::MapPointRecord recordOf(const MapPoint& p, const landmarks::KeypointModel& model) {
   landmarks::MapPointRecord r;
-  if (!p.landmarkState.empty()) r.model = decodeKeypointState(p.landmarkState, "map point " + std::to_string(p.id));
+  r.model = p.landmarkState.empty()
+                ? model.initialize(p.inverseDepthAlongZ(), initialVariance(model.params()))
+                : decodeKeypointState(p.landmarkState, "map point " + std::to_string(p.id));
   r.counters.visible = static_cast<std::uint32_t>(std::max(0, p.visibleCount));
   r.counters.found = static_cast<std::uint32_t>(std::max(0, p.foundCount));
   r.counters.observations = static_cast<std::uint32_t>(p.numObservations());
@@ -107,21 +116,10 @@ bool LocalMapper::isActive(MapPointId point) const {
   const MapPoint& p = map_.mapPoint(point);
   if (p.bad) return false;
   if (model() == landmarks::MapPointModel::Heuristic) return true;
-  // A point without state has seen no evidence yet: the policy judges it with the initial state.
-  return impl_->policy->isActive(recordOf(p));
+  return impl_->policy->isActive(recordOf(p, impl_->keypointModel));
 }
 
 // ------------------------------------------------------------------------------------ probabilistic hook
-
-namespace {
-
-/// SVO's initial seed spread: the whole inverse-depth range is +-3 sigma.
-double initialVariance(const landmarks::KeypointModelParams& p) {
-  const double range = p.inverseDepthMax - p.inverseDepthMin;
-  return range * range / 36.0;
-}
-
-}  // namespace
 
 /// Updates the keypoint model of `pointId` with its observation in keyframe `kfId` (§3.4.2): the inverse
 /// depth along the anchor's z axis is re-triangulated from the anchor keypoint and this observation (DLT),
@@ -206,7 +204,7 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
   for (MapPointId id : recent_) {
     if (!map_.hasMapPoint(id)) continue;  // fused or erased meanwhile
     const MapPoint& p = map_.mapPoint(id);
-    const landmarks::MapPointRecord record = recordOf(p);
+    const landmarks::MapPointRecord record = recordOf(p, impl_->keypointModel);
     const bool cull = p.bad || impl_->policy->shouldCull(record, current);
     if (cull) {
       map_.eraseMapPoint(id);

@@ -393,6 +393,40 @@ TEST(LocalMapper, MaskingModelDeactivatesDynamicPointsAndKeepsThemOutOfBundleAdj
   EXPECT_GT(movedStatic, 20);
 }
 
+// Probabilistic model: the policy culls a recent point whose inlier ratio collapsed, whatever its counters.
+TEST(LocalMapper, ProbabilisticCullingFollowsTheKeypointModel) {
+  std::mt19937 rng(43);
+  Scene s = makeScene(60, 19);
+  map::Map map;
+  for (int slot = 0; slot < 2; ++slot) addKeyFrame(map, s, slot, rng);
+  const auto ids = addTruePoints(map, s, 0, 60, 0, {0, 1});
+  ASSERT_GT(ids.size(), 10u);
+  LocalMappingParams params = heuristicParams();
+  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
+  const landmarks::KeypointModel model(params.keypointModel);
+  landmarks::KeypointState outlier = model.initialize(0.2, 1e-4);
+  outlier.aObs = 1.0;
+  outlier.bObs = 40.0;
+  outlier.depthUpdates = params.pointPolicy.cullMinDepthUpdates;
+  ASSERT_LT(model.inlierRatio(outlier), params.pointPolicy.cullInlierRatio);
+  map.mutableMapPoint(ids[0]).landmarkState = encodeKeypointState(outlier);
+  LocalMapper mapper(map, params);
+  EXPECT_FALSE(mapper.isActive(ids[0]));
+  mapper.processNewKeyFrame(s.keyframes[1], ids);
+  // processNewKeyFrame added one (consistent) measurement: still far below the culling ratio.
+  EXPECT_EQ(mapper.cullRecentPoints(s.keyframes[1]), 1);
+  EXPECT_FALSE(map.hasMapPoint(ids[0]));
+  for (std::size_t n = 1; n < ids.size(); ++n) EXPECT_TRUE(map.hasMapPoint(ids[n]));
+  map.checkInvariants("after probabilistic culling");
+}
+
+TEST(LocalMapper, ProbabilisticSequenceIsDeterministic) {
+  LocalMappingParams params = heuristicParams();
+  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
+  std::vector<LocalMappingReport> r1, r2;
+  EXPECT_TRUE(runSequence(params, 6, &r1) == runSequence(params, 6, &r2));
+}
+
 TEST(LocalMapper, UnknownKeyFrameIsAnError) {
   map::Map map;
   LocalMapper mapper(map, heuristicParams());
