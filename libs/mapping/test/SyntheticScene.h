@@ -23,6 +23,7 @@ struct Scene {
   std::vector<std::vector<int>> keypointOf;  ///< [keyframe slot][scene index] -> keypoint or -1
   std::vector<KeyFrameId> keyframes;  ///< slot -> id
   std::vector<std::vector<int>> sceneOfKeypoint;  ///< [keyframe slot][keypoint] -> scene index
+  double pixelNoise = 0.0;  ///< std-dev (px) of Gaussian noise added to each keypoint position
 };
 
 inline Scene makeScene(int numPoints, unsigned seed) {
@@ -66,7 +67,11 @@ inline KeyFrameId addKeyFrame(map::Map& map, Scene& s, int slot, std::mt19937& r
   for (int i : which) {
     const Eigen::Vector3d pc = kf.T_cam_world * s.points[i];
     if (pc.z() <= 0.1) continue;
-    const Eigen::Vector2d px = kf.camera.project(pc);
+    Eigen::Vector2d px = kf.camera.project(pc);
+    if (s.pixelNoise > 0.0) {
+      std::normal_distribution<double> noise(0.0, s.pixelNoise);
+      px += Eigen::Vector2d(noise(rng), noise(rng));
+    }
     if (!kf.camera.inImage(px)) continue;
     keypointOf[i] = static_cast<int>(kf.keypoints.size());
     kf.keypoints.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, s.angles[i], 1.f, 0);

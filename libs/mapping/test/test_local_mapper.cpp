@@ -2,6 +2,8 @@
 // points, each point has its own random descriptor (one flipped bit per view) and keypoint angle.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include <mrpt/config/CConfigFileMemory.h>
@@ -112,6 +114,39 @@ TEST(LocalMapper, TriangulatesNewPointsAtTheTruthAnchoredInTheNewKeyFrame) {
     EXPECT_LT((map.worldPosition(id) - s.points[i]).norm(), 2e-3 * trueDistance);
   }
   EXPECT_EQ(mapper.recentPoints().size(), created.size());
+}
+
+// 0.5 px keypoint noise: the checks keep most points and the depth error follows the first-order bound
+// sigma_z / z = z * sqrt(2) * sigma_px / (f * baseline) (eq. 2.24-2.29 in its simplest form).
+TEST(LocalMapper, TriangulationWithPixelNoiseMeetsTheFirstOrderDepthError) {
+  std::mt19937 rng(13);
+  Scene s = makeScene(300, 20);
+  s.pixelNoise = 0.5;
+  map::Map map;
+  addKeyFrame(map, s, 0, rng);
+  const KeyFrameId kf1 = addKeyFrame(map, s, 2, rng);
+  addTruePoints(map, s, 0, 40, 0, {0, 2});
+  LocalMapper mapper(map, heuristicParams());
+  const std::vector<MapPointId> created = mapper.createNewMapPoints(kf1);
+  int candidates = 0;
+  for (int i = 40; i < 300; ++i) candidates += s.keypointOf[0][i] >= 0 && s.keypointOf[2][i] >= 0;
+  EXPECT_GE(static_cast<int>(created.size()), candidates * 8 / 10) << "of " << candidates;
+  const KeyFrame& kf = map.keyFrame(kf1);
+  const double baseline = (kf.cameraCenter() - map.keyFrame(s.keyframes[0]).cameraCenter()).norm();
+  std::vector<double> normalized;  // |depth error| / predicted sigma
+  for (MapPointId id : created) {
+    const int i = sceneIndexOf(map, s, id);
+    ASSERT_GE(i, 40);
+    const double z = (kf.T_cam_world * s.points[i]).z();
+    const double sigmaZ = z * z * std::sqrt(2.0) * s.pixelNoise / (kf.camera.fx * baseline);
+    normalized.push_back(std::abs((kf.T_cam_world * map.worldPosition(id)).z() - z) / sigmaZ);
+  }
+  ASSERT_FALSE(normalized.empty());
+  std::sort(normalized.begin(), normalized.end());
+  std::printf("created %zu of %d, median %.3f, p95 %.3f\n", created.size(), candidates, normalized[normalized.size() / 2], normalized[normalized.size() * 95 / 100]);
+  // For a Gaussian error the median |e| / sigma is 0.674 and the 95 % quantile 1.96.
+  EXPECT_LT(normalized[normalized.size() / 2], 1.0);
+  EXPECT_LT(normalized[normalized.size() * 95 / 100], 3.0);
 }
 
 TEST(LocalMapper, NoTriangulationWithoutBaseline) {
