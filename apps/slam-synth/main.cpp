@@ -42,6 +42,8 @@ int main(int argc, char** argv) {
     cli.add_option("--preview", o.preview, "also write a PNG panel image|depth|normals|labels of one frame");
     cli.add_option("--preview-frame", o.previewFrame, "frame index shown in --preview (-1 = middle frame)")
         ->capture_default_str();
+    cli.add_option("--threads", o.threads, "renderer threads (the output is identical for any count)")
+        ->capture_default_str();
     bool quiet = false;
     cli.add_flag("--quiet", quiet, "no progress line");
     // Load the ini first so that explicit command-line options win.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <thread>
 
 #include "pslam/core/Error.h"
 
@@ -19,11 +20,12 @@ struct Prim {
   int material = 0;
   int objectId = -1;
   // Rectangle: plane n.X = dist, corner o, unit axes u, v, extents su, sv (camera frame).
-  Eigen::Vector3d n, o, u, v;
+  Eigen::Vector3d n = Eigen::Vector3d::Zero(), o = Eigen::Vector3d::Zero(), u = Eigen::Vector3d::Zero(),
+                  v = Eigen::Vector3d::Zero();
   double dist = 0, su = 0, sv = 0;
   // Box: rotation camera->box, camera centre in box coordinates, half extents.
-  Eigen::Matrix3d R_box_cam, R_world_box;
-  Eigen::Vector3d camInBox, half;
+  Eigen::Matrix3d R_box_cam = Eigen::Matrix3d::Identity(), R_world_box = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d camInBox = Eigen::Vector3d::Zero(), half = Eigen::Vector3d::Zero();
   int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // inclusive pixel bounding box
 };
 
@@ -257,6 +259,22 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
     return hit.prim >= 0;
   };
 
+  // Rows are independent within a pass: with options_.threads > 1 they are interleaved over threads (every
+  // pixel is a pure function of the scene, so the output does not depend on the thread count).
+  const int threads = std::max(1, std::min(options_.threads, H));
+  auto forEachRow = [&](const auto& row) {
+    if (threads == 1) {
+      for (int y = 0; y < H; ++y) row(y);
+      return;
+    }
+    std::vector<std::thread> pool;
+    for (int k = 0; k < threads; ++k)
+      pool.emplace_back([&, k] {
+        for (int y = k; y < H; y += threads) row(y);
+      });
+    for (auto& t : pool) t.join();
+  };
+
   // ---- Pass 1: pixel centres -> depth, normal, class, object.
   RenderedView out;
   out.radiance.create(H, W, CV_32FC1);
@@ -267,7 +285,7 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
   std::vector<Hit> hits(static_cast<std::size_t>(W) * H);
   const std::uint8_t noHitClass = scene.hasSky ? static_cast<std::uint8_t>(TrainId::Sky)
                                                : static_cast<std::uint8_t>(TrainId::Unlabeled);
-  for (int y = 0; y < H; ++y) {
+  forEachRow([&](int y) {
     auto* depthRow = out.depth.ptr<float>(y);
     auto* normalRow = out.normals.ptr<cv::Vec3f>(y);
     auto* classRow = out.trainId.ptr<std::uint8_t>(y);
@@ -290,7 +308,7 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
         idRow[x] = -1;
       }
     }
-  }
+  });
 
   // ---- Pass 2: intensity with anti-aliasing.
   const double focal = std::sqrt(fx * fy);
@@ -339,7 +357,7 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
   const bool fullInterior = texturedInterior && options_.antiAliasing == AntiAliasing::Full;
   // 0 = interior sampled once, 1 = final (silhouette, sky, or supersampled interior).
   std::vector<std::uint8_t> done(static_cast<std::size_t>(W) * H, 1);
-  for (int y = 0; y < H; ++y) {
+  forEachRow([&](int y) {
     auto* radRow = out.radiance.ptr<float>(y);
     for (int x = 0; x < W; ++x) {
       const std::size_t idx = static_cast<std::size_t>(y) * W + x;
@@ -373,14 +391,14 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
       }
       radRow[x] = static_cast<float>(value);
     }
-  }
+  });
   if (texturedInterior && options_.antiAliasing == AntiAliasing::Adaptive) {
     // Sharp texture edges (mortar, markings, window frames) show up as strong single-sample contrast;
     // only those pixels get the N x N texture average. Decisions use the first-pass values only, so the
     // result does not depend on the scan order.
     const cv::Mat first = out.radiance.clone();
     const float thr = static_cast<float>(options_.adaptiveContrast);
-    for (int y = 0; y < H; ++y) {
+    forEachRow([&](int y) {
       const float* r0 = first.ptr<float>(y);
       const float* rUp = first.ptr<float>(std::max(y - 1, 0));
       const float* rDown = first.ptr<float>(std::min(y + 1, H - 1));
@@ -393,7 +411,7 @@ RenderedView Renderer::render(const Scene& scene, const Eigen::Isometry3d& T_wor
                                   std::abs(v - rUp[x]), std::abs(v - rDown[x])});
         if (c > thr) radRow[x] = static_cast<float>(interiorSupersampled(x, y, hits[idx]));
       }
-    }
+    });
   }
   return out;
 }

@@ -58,6 +58,7 @@ void SynthOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, 
   outDir = out;
   name = cfg.read_string(section, "name", name);
   previewFrame = cfg.read_int(section, "preview_frame", previewFrame);
+  threads = cfg.read_int(section, "threads", threads);
 }
 
 void SynthOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
@@ -79,6 +80,7 @@ void SynthOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const st
   cfg.write(section, "out_dir", outDir.string());
   cfg.write(section, "name", name);
   cfg.write(section, "preview_frame", previewFrame);
+  cfg.write(section, "threads", threads);
 }
 
 void SynthOptions::check() const {
@@ -100,6 +102,7 @@ void SynthOptions::check() const {
   if (antiAliasing != "silhouettes" && antiAliasing != "adaptive" && antiAliasing != "full")
     keyError(sec, "anti_aliasing", "'" + antiAliasing + "' is not one of silhouettes, adaptive, full");
   if (!std::isfinite(aaContrast) || aaContrast <= 0) keyError(sec, "aa_contrast", "must be positive (grey levels)");
+  if (threads < 1 || threads > 64) keyError(sec, "threads", "must be in [1, 64]");
   if (outDir.empty()) keyError(sec, "out_dir", "output folder is required");
   const std::string n = effectiveName();
   if (n.find_first_of("/\\") != std::string::npos || n == "." || n == "..")
@@ -128,7 +131,8 @@ nlohmann::json SynthOptions::toJson() const {
   return {{"scenario", scenario}, {"frames", frames}, {"width", width}, {"height", height}, {"fx", fx},
           {"fy", fy}, {"cx", cx}, {"cy", cy}, {"seed", seed}, {"texture", textured}, {"noise_sigma", noiseSigma},
           {"exposure", exposure}, {"supersampling", supersampling}, {"anti_aliasing", antiAliasing}, {"aa_contrast", aaContrast},
-          {"out_dir", outDir.string()}, {"name", effectiveName()}, {"preview_frame", previewFrame}};
+          {"out_dir", outDir.string()}, {"name", effectiveName()}, {"preview_frame", previewFrame},
+          {"threads", threads}};
 }
 
 // ------------------------------------------------------------------------------------------------ sensor
@@ -254,6 +258,7 @@ SynthSummary SynthApp::run() {
   ro.supersampling = o.supersampling;
   ro.antiAliasing = o.antiAliasingMode();
   ro.adaptiveContrast = o.aaContrast;
+  ro.threads = o.threads;
   const Renderer renderer(cam, ro);
   const std::string name = o.effectiveName();
 

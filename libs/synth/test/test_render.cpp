@@ -251,6 +251,22 @@ TEST(Renderer, WhiteModeHasUniformShadingPerPlane) {
   EXPECT_NEAR(hi, 255 * 0.85 * scene.lighting.shade(Vector3d(-1, 0, 0)), 1e-3);
 }
 
+TEST(Renderer, ThreadCountDoesNotChangeTheImage) {
+  Scene scene;
+  Material bricks;
+  bricks.kind = TextureKind::PosterWall;
+  scene.addRect({3.0, -10.0, -5.0}, Vector3d::UnitY(), Vector3d::UnitZ(), 20.0, 10.0, scene.addMaterial(bricks));
+  scene.addStaticBox("box", {2.0, 0.3, -0.5}, {0.5, 0.6, 0.7}, 0.4, scene.addMaterial(uniform(0.7f, TrainId::Car)));
+  RenderOptions one, three;
+  three.threads = 3;
+  const Eigen::Isometry3d T = lookFrom({0, 0, 0}, {3, 0.2, -0.1});
+  const RenderedView a = Renderer(smallCamera(), one).render(scene, T, 0);
+  const RenderedView b = Renderer(smallCamera(), three).render(scene, T, 0);
+  EXPECT_EQ(cv::countNonZero(a.radiance != b.radiance), 0);
+  EXPECT_EQ(cv::countNonZero(a.trainId != b.trainId), 0);
+  EXPECT_EQ(cv::countNonZero(a.depth != b.depth), 0);
+}
+
 TEST(Renderer, RejectsBadCamera) {
   PinholeCamera c = smallCamera();
   c.fx = -1;

@@ -35,6 +35,7 @@ struct RenderOptions {
   AntiAliasing antiAliasing = AntiAliasing::Adaptive;
   double adaptiveContrast = 6.0;  ///< grey levels that trigger interior supersampling in Adaptive mode
   double nearClip = 0.05;   ///< metres
+  int threads = 1;          ///< rows rendered in parallel; the image is identical for any count
 };
 
 struct RenderedView {

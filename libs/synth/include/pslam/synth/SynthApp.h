@@ -39,6 +39,7 @@ struct SynthOptions {
   std::string name;        ///< empty = scenario name
   std::filesystem::path preview;  ///< optional PNG: image | depth | normals | labels of one frame
   int previewFrame = -1;          ///< frame shown in the preview (-1 = the middle frame)
+  int threads = 1;                ///< renderer threads (output identical for any count)
   bool progress = true;
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
