@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pslam/core/Error.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/system/SlamRunApp.h"

@@ -103,11 +103,15 @@ std::vector<map::MapPointId> BuiltinLocalMapper::triangulateNewPoints(map::KeyFr
     for (std::size_t j = 0; j < k2.keypoints.size(); ++j)
       if (k2.mapPointIds[j] == map::kNoMapPoint) free2.push_back(static_cast<int>(j));
     if (free1.empty() || free2.empty()) continue;
-    cv::Mat d1(static_cast<int>(free1.size()), 32, CV_8U), d2(static_cast<int>(free2.size()), 32, CV_8U);
-    for (std::size_t a = 0; a < free1.size(); ++a) k1.descriptors.row(free1[a]).copyTo(d1.row(static_cast<int>(a)));
-    for (std::size_t b = 0; b < free2.size(); ++b) k2.descriptors.row(free2[b]).copyTo(d2.row(static_cast<int>(b)));
-    cv::Mat dist;
-    cv::batchDistance(d1, d2, dist, CV_32S, cv::noArray(), cv::NORM_HAMMING);
+    // Positions of the free keypoints of k2 for a cheap epipolar-band pre-test before the descriptor distance
+    // (exhaustive search stands in for ORB-SLAM's bag-of-words candidate restriction).
+    std::vector<Eigen::Vector2d> x2s(free2.size());
+    std::vector<double> band2(free2.size());
+    for (std::size_t b = 0; b < free2.size(); ++b) {
+      const cv::KeyPoint& kp2 = k2.keypoints[free2[b]];
+      x2s[b] = Eigen::Vector2d(kp2.pt.x, kp2.pt.y);
+      band2[b] = 3.84 * k2.levelSigma2[kp2.octave] * 1.01;  // slightly loose; the exact test follows
+    }
 
     // SearchForTriangulation: best epipolar-consistent candidate under TH_LOW, one match per keypoint of k2.
     std::vector<int> taken2(free2.size(), -1);
@@ -116,16 +120,22 @@ std::vector<map::MapPointId> BuiltinLocalMapper::triangulateNewPoints(map::KeyFr
     for (std::size_t a = 0; a < free1.size(); ++a) {
       const cv::KeyPoint& kp1 = k1.keypoints[free1[a]];
       const Eigen::Vector2d x1(kp1.pt.x, kp1.pt.y);
-      const int* row = dist.ptr<int>(static_cast<int>(a));
+      const Eigen::Vector3d line = F12.transpose() * x1.homogeneous();  // epipolar line of x1 in image 2
+      const double lineNorm2 = line.x() * line.x() + line.y() * line.y();
+      if (!(lineNorm2 > 0)) continue;
+      const uint8_t* desc1 = k1.descriptors.ptr<uint8_t>(free1[a]);
       int best = params_.maxDistance + 1, bestB = -1;
       for (std::size_t b = 0; b < free2.size(); ++b) {
-        if (row[b] >= best || taken2[b] >= 0) continue;
+        if (taken2[b] >= 0) continue;
+        const double num = line.x() * x2s[b].x() + line.y() * x2s[b].y() + line.z();
+        if (num * num > band2[b] * lineNorm2) continue;
+        const int d = features::hammingDistance256(desc1, k2.descriptors.ptr<uint8_t>(free2[b]));
+        if (d >= best) continue;
         const cv::KeyPoint& kp2 = k2.keypoints[free2[b]];
-        const Eigen::Vector2d x2(kp2.pt.x, kp2.pt.y);
         const double s2 = k2.scaleFactors[kp2.octave];
-        if ((x2 - e2).squaredNorm() < 100 * s2 * s2) continue;
-        if (!geometry::checkDistEpipolarLine(x1, x2, F12, k2.levelSigma2[kp2.octave])) continue;
-        best = row[b];
+        if ((x2s[b] - e2).squaredNorm() < 100 * s2 * s2) continue;
+        if (!geometry::checkDistEpipolarLine(x1, x2s[b], F12, k2.levelSigma2[kp2.octave])) continue;
+        best = d;
         bestB = static_cast<int>(b);
       }
       if (bestB < 0) continue;
