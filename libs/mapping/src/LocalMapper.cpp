@@ -228,9 +228,9 @@ struct PairMatch {
 };
 
 /// ORB-SLAM SearchForTriangulation without a vocabulary: every unmatched keypoint of kf1 against every
-/// unmatched keypoint of kf2 (ascending indices), TH_LOW, far enough from the epipole, on the epipolar line
-/// (chi2 3.84 with kf2's level sigma^2), best/second-best ratio, one kf1 keypoint per kf2 keypoint, then the
-/// rotation histogram.
+/// unmatched keypoint of kf2 (ascending indices): on the epipolar line (chi2 3.84 with kf2's level sigma^2),
+/// far enough from the epipole; the best must be <= TH_LOW and < nnRatio x the second best; one kf1 keypoint
+/// per kf2 keypoint (first come); then the rotation histogram.
 std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2, const Eigen::Matrix3d& F12,
                                               const LocalMappingParams& params) {
   // Epipole in kf2: projection of kf1's centre.
@@ -258,7 +258,9 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
     if (kf1.mapPointIds[i] != map::kNoMapPoint) continue;
     const uint8_t* d1 = kf1.descriptors.ptr<uint8_t>(static_cast<int>(i));
     const Eigen::Vector2d x1 = kf1.pixel(i);
-    int best = params.maxDescriptorDistance + 1, second = 257;
+    // Best and second best over every candidate in the band (the second may exceed TH_LOW, as in ORB-SLAM's
+    // projection searches).
+    int best = 257, second = 257;
     std::size_t bestJ = 0;
     bool found = false;
     const Eigen::Vector3d line2 = F12.transpose() * Eigen::Vector3d(x1.x(), x1.y(), 1.0);  // l2 = F12^T x1
@@ -270,7 +272,7 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
       const double num = line2.x() * x2s[n] + line2.y() * y2s[n] + line2.z();
       if (num * num >= bound2[n] * lineNorm2) continue;
       const int dist = features::hammingDistance256(d1, kf2.descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      if (dist > params.maxDescriptorDistance || dist >= second) continue;
+      if (dist >= second) continue;
       const Eigen::Vector2d x2 = kf2.pixel(j);
       const int octave2 = kf2.keypoints[j].octave;
       if (epipoleValid) {
@@ -280,7 +282,7 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
       // Same test through the geometry library (eq. 2.46), the reference for the fast band test above.
       if (!geometry::checkDistEpipolarLine(x1, x2, F12, kf2.levelSigma2.at(octave2), kEpipolarChi2)) continue;
       if (dist < best) {
-        second = found ? best : second;
+        second = best;
         best = dist;
         bestJ = j;
         found = true;
@@ -288,7 +290,7 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
         second = dist;
       }
     }
-    if (!found) continue;
+    if (!found || best > params.maxDescriptorDistance) continue;
     if (static_cast<double>(best) >= params.nnRatio * static_cast<double>(second)) continue;
     taken2[bestJ] = true;
     matches.push_back({i, bestJ});

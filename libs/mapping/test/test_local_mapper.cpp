@@ -149,6 +149,34 @@ TEST(LocalMapper, TriangulationWithPixelNoiseMeetsTheFirstOrderDepthError) {
   EXPECT_LT(normalized[normalized.size() * 95 / 100], 3.0);
 }
 
+// Two scene points on the same epipolar line (same height and depth, 0.3 m apart). With the same descriptor
+// the match is ambiguous and the ratio test (0.6) must reject both; with distinct descriptors (control)
+// both are triangulated.
+TEST(LocalMapper, AmbiguousEpipolarCandidatesFailTheRatioTest) {
+  for (const bool sameDescriptor : {true, false}) {
+    std::mt19937 rng(3);
+    Scene s = makeScene(240, 11);
+    s.points[100] = Eigen::Vector3d(0.5, 0.4, 6.0);
+    s.points[101] = s.points[100] + Eigen::Vector3d(0.3, 0.0, 0.0);
+    if (sameDescriptor) s.descriptors[101] = s.descriptors[100].clone();
+    map::Map map;
+    addKeyFrame(map, s, 0, rng);
+    const KeyFrameId kf1 = addKeyFrame(map, s, 2, rng);
+    for (int slot : {0, 2})
+      for (int i : {100, 101}) ASSERT_GE(s.keypointOf[slot][i], 0);
+    addTruePoints(map, s, 0, 40, 0, {0, 2});
+    LocalMapper mapper(map, heuristicParams());
+    const std::vector<MapPointId> created = mapper.createNewMapPoints(kf1);
+    EXPECT_GT(created.size(), 150u);
+    int ambiguousCreated = 0;
+    for (MapPointId id : created) {
+      const int i = sceneIndexOf(map, s, id);
+      ambiguousCreated += i == 100 || i == 101;
+    }
+    EXPECT_EQ(ambiguousCreated, sameDescriptor ? 0 : 2);
+  }
+}
+
 TEST(LocalMapper, NoTriangulationWithoutBaseline) {
   std::mt19937 rng(3);
   Scene s = makeScene(120, 12);
