@@ -1,6 +1,9 @@
 // End-to-end tests of slam-run (SlamRunApp and the CLI) on a short synthetic room sequence rendered by the
 // slam-synth library in the test: initialization, tracking, ATE against the known ground truth, bit-identical
 // repeated runs, the threaded mode, a sequence that never initializes, and bad inputs.
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -25,32 +28,30 @@ using namespace pslam;
 
 namespace {
 const fs::path kConfig = fs::path(PRIORSLAM_SOURCE_DIR) / "config/slam/synthetic.ini";
-constexpr int kFrames = 90;
+constexpr int kFrames = 60;
 
-fs::path tempRoot() {
-  static const fs::path root = [] {
-    fs::path p = fs::temp_directory_path() / ("pslam_slam_e2e_" + std::to_string(::getpid()));
-    fs::create_directories(p);
-    return p;
-  }();
-  return root;
+// Per-process temporary folder, removed at exit (the guard owns its own copy of the path, so static
+// destruction order does not matter).
+struct TempRoot {
+  fs::path path = fs::temp_directory_path() / ("pslam_slam_e2e_" + std::to_string(::getpid()));
+  TempRoot() { fs::create_directories(path); }
+  ~TempRoot() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+const fs::path& tempRoot() {
+  static const TempRoot root;
+  return root.path;
 }
 
-struct TempCleanup {
-  ~TempCleanup() {
-    std::error_code ec;
-    fs::remove_all(tempRoot(), ec);
-  }
-} cleanup;
-
-// Renders the room scenario once (translation first, then turns) at 320x240.
+// Renders the first seconds of the room scenario once (translation first: parallax for initialization) at
+// 640x480 (at 320x240 too few level-0 corners match for the two-view initialization).
 const fs::path& roomRawlog() {
   static const fs::path rawlog = [] {
     synth::SynthOptions o;
     o.scenario = "room";
     o.frames = kFrames;
-    o.width = 320;
-    o.height = 240;
     o.seed = 3;
     o.noiseSigma = 1.0;
     o.outDir = tempRoot() / "synth";
@@ -138,7 +139,7 @@ TEST(SlamE2E, SameSeedGivesBitIdenticalTrajectories) {
   runSlam(a, 5);
   runSlam(b, 5);
   const std::string ta = readText(a / "trajectory.txt");
-  ASSERT_FALSE(ta.empty());
+  ASSERT_GE(readTumTrajectory(a / "trajectory.txt").size(), 20u);
   EXPECT_EQ(ta, readText(b / "trajectory.txt"));
   EXPECT_EQ(readText(a / "keyframes.txt"), readText(b / "keyframes.txt"));
 }
