@@ -490,6 +490,40 @@ TEST(LocalMapper, ProbabilisticSequenceIsDeterministic) {
   EXPECT_TRUE(runSequence(params, 6, &r1) == runSequence(params, 6, &r2));
 }
 
+// The steps one by one on a noisy sequence (1 px keypoint noise): the map invariants hold after each.
+TEST(LocalMapper, InvariantsHoldAfterEveryStep) {
+  std::mt19937 rng(51);
+  Scene s = makeScene(300, 24);
+  s.pixelNoise = 1.0;
+  map::Map map;
+  addKeyFrame(map, s, 0, rng);
+  addKeyFrame(map, s, 1, rng);
+  const auto initial = addTruePoints(map, s, 0, 60, 0, {0, 1});
+  LocalMapper mapper(map, heuristicParams());
+  int erasedObservations = 0;
+  for (int slot = 0; slot < 8; ++slot) {
+    const KeyFrameId id = slot < 2 ? s.keyframes[slot] : addKeyFrame(map, s, slot, rng);
+    if (slot >= 2) trackKeyFrame(map, s, slot);
+    const std::string at = "slot " + std::to_string(slot) + " after ";
+    mapper.processNewKeyFrame(id, slot == 1 ? initial : std::vector<MapPointId>{});
+    map.checkInvariants(at + "processNewKeyFrame");
+    mapper.cullRecentPoints(id);
+    map.checkInvariants(at + "cullRecentPoints");
+    mapper.createNewMapPoints(id);
+    map.checkInvariants(at + "createNewMapPoints");
+    mapper.searchInNeighbors(id);
+    map.checkInvariants(at + "searchInNeighbors");
+    if (map.numKeyFrames() > 2) erasedObservations += mapper.runLocalBundleAdjustment(id).observationsErased;
+    map.checkInvariants(at + "runLocalBundleAdjustment");
+    mapper.cullKeyFrames(id);
+    map.checkInvariants(at + "cullKeyFrames");
+    learnMapPoints(map, s);
+  }
+  EXPECT_GT(map.numMapPoints(), 150u);
+  std::printf("keyframes %zu, points %zu, BA observations erased %d\n", map.numKeyFrames(), map.numMapPoints(),
+              erasedObservations);
+}
+
 TEST(LocalMapper, UnknownKeyFrameIsAnError) {
   map::Map map;
   LocalMapper mapper(map, heuristicParams());
