@@ -34,7 +34,7 @@ struct SynthOptions {
   bool exposure = false;   ///< per-frame affine brightness change a*I+b (smooth in time, from the seed)
   int supersampling = 2;
   std::string antiAliasing = "adaptive";  ///< silhouettes | adaptive | full (see RenderOptions)
-  double aaContrast = 10.0;               ///< adaptive mode: grey-level contrast that triggers supersampling
+  double aaContrast = 20.0;               ///< adaptive mode: grey-level contrast that triggers supersampling
   std::filesystem::path outDir;
   std::string name;        ///< empty = scenario name
   std::filesystem::path preview;  ///< optional PNG: image | depth | normals | labels of one frame
