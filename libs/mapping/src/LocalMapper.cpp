@@ -181,11 +181,12 @@ void LocalMapper::processNewKeyFrame(KeyFrameId kfId, const std::vector<MapPoint
   if (!map_.hasKeyFrame(kfId)) throw Error("LocalMapper: keyframe " + std::to_string(kfId) + " is not in the map");
   for (MapPointId id : map_.pointsOf(kfId)) {
     if (map_.mapPoint(id).bad) continue;
-    map_.updateNormalAndDepth(id);
-    map_.computeDistinctiveDescriptor(id);
+    // The model update first: alpha compares the keypoint with the descriptor the tracker matched against.
     if (model() != landmarks::MapPointModel::Heuristic &&
         updateLandmarkState(map_, impl_->keypointModel, params_, id, kfId))
       ++landmarkUpdates_;
+    map_.updateNormalAndDepth(id);
+    map_.computeDistinctiveDescriptor(id);
   }
   // Covisibility weights are kept by Map::addObservation; the spanning tree link is made once.
   map_.connectToSpanningTree(kfId);
