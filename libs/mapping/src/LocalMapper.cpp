@@ -217,6 +217,17 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
     stillRecent.push_back(id);
   }
   recent_ = std::move(stillRecent);
+  // Probabilistic model: phi needs several depth updates (cullMinDepthUpdates) before the policy may cull, more
+  // than ORB-SLAM's three-keyframe probation, so every point the keyframe just measured is checked as well.
+  if (model() == landmarks::MapPointModel::Probabilistic && map_.hasKeyFrame(kfId))
+    for (MapPointId id : map_.pointsOf(kfId)) {
+      if (!map_.hasMapPoint(id)) continue;
+      const MapPoint& p = map_.mapPoint(id);
+      if (p.bad || impl_->policy->shouldCull(recordOf(p, impl_->keypointModel), current)) {
+        map_.eraseMapPoint(id);
+        ++culled;
+      }
+    }
   return culled;
 }
 

@@ -481,6 +481,11 @@ TEST(LocalMapper, ProbabilisticCullingFollowsTheKeypointModel) {
   EXPECT_FALSE(map.hasMapPoint(ids[0]));
   for (std::size_t n = 1; n < ids.size(); ++n) EXPECT_TRUE(map.hasMapPoint(ids[n]));
   map.checkInvariants("after probabilistic culling");
+  // Also once out of probation: a point the new keyframe observes is checked by the policy.
+  map.mutableMapPoint(ids[1]).landmarkState = encodeKeypointState(outlier);
+  mapper.reset();
+  EXPECT_EQ(mapper.cullRecentPoints(s.keyframes[1]), 1);
+  EXPECT_FALSE(map.hasMapPoint(ids[1]));
 }
 
 TEST(LocalMapper, ProbabilisticSequenceIsDeterministic) {
