@@ -360,7 +360,11 @@ TEST(LocalMapper, SequenceKeepsInvariantsGrowsAnAccurateMapAndIsDeterministic) {
   const map::Map b = runSequence(heuristicParams(), 6, &r2);
   EXPECT_TRUE(a == b) << "same input gave different maps";
   int created = 0;
-  for (const auto& r : r1) created += r.newPoints;
+  for (const auto& r : r1) {
+    created += r.newPoints;
+    EXPECT_EQ(r.landmarkUpdates, 0);  // heuristic = ORB-SLAM*: the keypoint model is not involved
+  }
+  for (const auto& [id, p] : a.mapPoints()) EXPECT_TRUE(p.landmarkState.empty()) << "point " << id;
   EXPECT_GT(created, 100);
   EXPECT_GT(a.numMapPoints(), 160u);
   // Every point is at its scene point (exact pixels: triangulation and BA keep it there).
