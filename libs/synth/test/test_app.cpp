@@ -242,3 +242,23 @@ TEST(SynthApp, GroundTruthReprojectsDepthBetweenFrames) {
   ASSERT_GT(checked, 2000);
   EXPECT_GT(agree, 0.9 * checked) << agree << " of " << checked;
 }
+
+TEST(Scenarios, StartWithParallaxAndLoopsClose) {
+  for (const std::string& name : scenarioNames()) {
+    const Scenario s = makeScenario(name, 1, 10.0);
+    // Monocular initialization needs translation from the start, not a rotation on the spot.
+    const Eigen::Isometry3d T0 = s.T_world_cam(0.0), T1 = s.T_world_cam(1.0);
+    EXPECT_GT((T1.translation() - T0.translation()).norm(), 0.2) << name;
+    // Smooth: no jumps between consecutive frames anywhere in the default length.
+    const ScenarioInfo info = scenarioInfo(name);
+    double maxStep = 0;
+    for (int i = 1; i < info.defaultFrames; ++i)
+      maxStep = std::max(maxStep, (s.T_world_cam(i / info.fps).translation() - s.T_world_cam((i - 1) / info.fps).translation()).norm());
+    EXPECT_LT(maxStep, name == "street" ? 1.0 : 0.1) << name;
+  }
+  // The corridor walk returns to its start after one loop (drift becomes visible), up to the shake.
+  const Scenario c = makeScenario("corridor", 1, 70.0);
+  double best = 1e9;
+  for (double t = 55; t < 65; t += 1.0 / 15) best = std::min(best, (c.T_world_cam(t).translation() - c.T_world_cam(0).translation()).norm());
+  EXPECT_LT(best, 0.05);
+}
