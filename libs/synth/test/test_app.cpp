@@ -262,3 +262,26 @@ TEST(Scenarios, StartWithParallaxAndLoopsClose) {
   for (double t = 55; t < 65; t += 1.0 / 15) best = std::min(best, (c.T_world_cam(t).translation() - c.T_world_cam(0).translation()).norm());
   EXPECT_LT(best, 0.05);
 }
+
+TEST(Scenarios, StreetTrafficStopsAndGoes) {
+  const Scenario s = makeScenario("street", 1, 30.0);
+  auto x = [&](const std::string& name, double t) {
+    for (const auto& o : s.scene.objects)
+      if (o.name == name) return o.T_world_object(t).translation().x();
+    ADD_FAILURE() << "no object " << name;
+    return 0.0;
+  };
+  for (const char* name : {"lead car", "queue car 1", "truck"}) {
+    EXPECT_NEAR(x(name, 14.0), x(name, 18.5), 1e-9) << name << " waits at the red light";
+    EXPECT_GT(x(name, 26.0) - x(name, 18.5), 5.0) << name << " drives off";
+    EXPECT_GT(x(name, 10.0) - x(name, 0.0), 5.0) << name << " arrives moving";
+  }
+  // The ego camera stops behind the lead car, without touching it, and follows it off.
+  const double ego14 = s.T_world_cam(14.0).translation().x(), ego20 = s.T_world_cam(20.0).translation().x();
+  EXPECT_NEAR(ego14, ego20, 0.02);
+  EXPECT_GT(x("lead car", 14.0) - 2.1 - ego14, 2.0);
+  EXPECT_GT(s.T_world_cam(29.0).translation().x() - ego20, 20.0);
+  int parked = 0;
+  for (const auto& o : s.scene.objects) parked += o.name == "parked car" && !o.moving;
+  EXPECT_GT(parked, 50);
+}
