@@ -23,6 +23,8 @@ class MappingLibraryMapper : public KeyFrameMapper {
     out.newPoints = r.newPoints;
     out.culledPoints = r.culledPoints;
     out.baObservationsErased = r.baObservationsErased;
+    out.fused = r.fusedPoints;
+    out.fusionMs = r.fusionMs;
     out.triangulationMs = r.triangulationMs;
     out.localBaMs = r.localBaMs;
     return out;
