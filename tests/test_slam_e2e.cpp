@@ -22,6 +22,7 @@
 #include "pslam/eval/Metrics.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/system/SlamRunApp.h"
+#include "pslam/system/SlamSystem.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
@@ -134,6 +135,25 @@ TEST(SlamE2E, InitializesTracksAndStaysCloseToGroundTruth) {
   EXPECT_EQ(report["summary"]["frames_tracked"], s.framesTracked);
 }
 
+TEST(SlamE2E, BuiltinLocalMapperAlsoTracks) {
+  // The built-in mapper is the fallback when libs/mapping is not built; select it explicitly here so both
+  // mappers are exercised in a full build.
+  std::string ini = readText(kConfig);
+  const std::size_t at = ini.find("[System]\n");
+  ASSERT_NE(at, std::string::npos);
+  ini.insert(at + 9, "localMapper = builtin\n");
+  const fs::path config = tempRoot() / "synthetic_builtin.ini";
+  std::ofstream(config) << ini;
+  const fs::path out = tempRoot() / "builtin";
+  const auto s = runSlam(out, 1, false, roomRawlog(), config);
+  ASSERT_TRUE(s.initialized());
+  EXPECT_EQ(s.framesLost, 0u);
+  const auto report = nlohmann::json::parse(readText(out / "report.json"));
+  EXPECT_EQ(report["local_mapper"], "builtin");
+  const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
+  EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
+}
+
 TEST(SlamE2E, SameSeedGivesBitIdenticalTrajectories) {
   const fs::path a = tempRoot() / "det_a", b = tempRoot() / "det_b";
   runSlam(a, 5);
@@ -151,6 +171,39 @@ TEST(SlamE2E, ThreadedModeTracks) {
   EXPECT_GE(s.framesTracked, static_cast<std::size_t>(kFrames / 2));
   const auto report = nlohmann::json::parse(readText(out / "report.json"));
   EXPECT_EQ(report["mode"], "threaded");
+}
+
+TEST(SlamE2E, RelocalizesAfterAnUntrackableFrame) {
+  // Frames 0..44 of the room, then one blank frame (no corners: tracking is lost), then the sequence goes on:
+  // relocalization against the keyframes must recover the pose.
+  const system::SlamParams params = system::loadSlamParams(kConfig.string());
+  datasets::RawlogReader reader(roomRawlog());
+  std::unique_ptr<system::SlamSystem> slam;
+  datasets::Frame f;
+  bool lostSeen = false, relocalized = false;
+  int framesAfterLoss = 0;
+  while (reader.next(f)) {
+    if (!slam) slam = std::make_unique<system::SlamSystem>(params, geometry::PinholeCamera::fromTCamera(f.camera), 1, false);
+    if (f.index == 45) {
+      datasets::Frame blank = f;
+      blank.image = cv::Mat(f.image.size(), f.image.type(), cv::Scalar::all(128));
+      const auto r = slam->processFrame(blank);
+      ASSERT_GE(slam->map().numKeyFrames(), 6u) << "the map should be past the reset threshold";
+      EXPECT_EQ(r.report.status, tracking::FrameStatus::Lost);
+      lostSeen = true;
+    }
+    const auto r = slam->processFrame(f);
+    if (lostSeen) {
+      ++framesAfterLoss;
+      if (r.report.status == tracking::FrameStatus::Relocalized) {
+        relocalized = true;
+        break;
+      }
+    }
+  }
+  EXPECT_TRUE(lostSeen);
+  EXPECT_TRUE(relocalized);
+  EXPECT_LE(framesAfterLoss, 3);
 }
 
 TEST(SlamE2E, SequenceWithoutStructureEndsWithEmptyTrajectoryAndWarning) {
