@@ -14,6 +14,7 @@ void InitializerParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& 
   maxReferenceAge = cfg.read_int(s, "maxReferenceAge", maxReferenceAge);
   windowHalfSize = cfg.read_float(s, "windowHalfSize", windowHalfSize);
   nnRatio = cfg.read_float(s, "nnRatio", nnRatio);
+  featureFactor = cfg.read_double(s, "featureFactor", featureFactor);
   twoView.loadFromConfigFile(cfg, s);
 }
 
@@ -24,6 +25,7 @@ void InitializerParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, con
   cfg.write(s, "maxReferenceAge", maxReferenceAge);
   cfg.write(s, "windowHalfSize", windowHalfSize);
   cfg.write(s, "nnRatio", nnRatio);
+  cfg.write(s, "featureFactor", featureFactor);
   twoView.saveToConfigFile(cfg, s);
 }
 
@@ -34,6 +36,7 @@ void InitializerParams::check() const {
   require(maxReferenceAge >= 1, "[Initializer] maxReferenceAge", "must be >= 1");
   require(windowHalfSize > 0, "[Initializer] windowHalfSize", "must be > 0");
   require(nnRatio > 0 && nnRatio <= 1, "[Initializer] nnRatio", "must be in (0, 1]");
+  require(featureFactor >= 1 && featureFactor <= 10, "[Initializer] featureFactor", "must be in [1, 10]");
   twoView.check();
 }
 

@@ -26,6 +26,10 @@ struct InitializerParams {
   int maxReferenceAge = 30;     ///< frames: an older reference is replaced (not in ORB-SLAM; avoids stale references)
   float windowHalfSize = 100.f; ///< SearchForInitialization window (px)
   float nnRatio = 0.9f;         ///< SearchForInitialization ratio
+  /// ORB-SLAM2 (monocular) extracts featureFactor x nFeatures keypoints while initializing: only level-0
+  /// keypoints take part in SearchForInitialization, and enough matches are needed to keep a reference frame
+  /// long enough for parallax to build up.
+  double featureFactor = 2.0;
   geometry::TwoViewParams twoView;
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
