@@ -292,6 +292,25 @@ TEST(SlamE2E, BadInputsAreNamed) {
   EXPECT_FALSE(fs::exists(out / "trajectory.txt"));
 }
 
+TEST(SlamE2E, FrameRangeIsRespected) {
+  system::SlamRunOptions o;
+  o.config = kConfig;
+  o.rawlog = roomRawlog();
+  o.outDir = tempRoot() / "range";
+  o.first = 10;
+  o.last = 14;
+  o.progress = false;
+  const auto s = system::SlamRunApp(o).run();
+  EXPECT_EQ(s.framesProcessed, 5u);
+  const auto report = nlohmann::json::parse(readText(o.outDir / "report.json"));
+  ASSERT_EQ(report["frames"].size(), 5u);
+  EXPECT_EQ(report["frames"][0]["index"], 10);
+  EXPECT_EQ(report["frames"][4]["index"], 14);
+  o.first = 20;
+  o.last = 5;
+  EXPECT_THROW(system::SlamRunApp(o).run(), Error);
+}
+
 TEST(SlamE2E, CliPrintsOneErrorLineAndExitsNonZero) {
   const fs::path exe = fs::path(PRIORSLAM_BINARY_DIR) / "bin/slam-run";
   if (!fs::exists(exe)) GTEST_SKIP() << "slam-run binary not built in this configuration";
