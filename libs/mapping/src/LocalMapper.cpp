@@ -241,7 +241,7 @@ struct PairMatch {
 
 /// ORB-SLAM SearchForTriangulation without a vocabulary: every unmatched keypoint of kf1 against every
 /// unmatched keypoint of kf2 (ascending indices): on the epipolar line (chi2 3.84 with kf2's level sigma^2),
-/// far enough from the epipole; the best must be <= TH_LOW and < nnRatio x the second best; one kf1 keypoint
+/// far enough from the epipole; the best must be <= TH_LOW (and < nnRatio x the second best if nnRatio < 1); one kf1 keypoint
 /// per kf2 keypoint (first come); then the rotation histogram.
 std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2, const Eigen::Matrix3d& F12,
                                               const LocalMappingParams& params) {
@@ -303,7 +303,8 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
       }
     }
     if (!found || best > params.maxDescriptorDistance) continue;
-    if (static_cast<double>(best) >= params.nnRatio * static_cast<double>(second)) continue;
+    // Optional ratio test (nnRatio < 1); ORB-SLAM2 applies none here (default nnRatio = 1).
+    if (params.nnRatio < 1.0 && static_cast<double>(best) >= params.nnRatio * static_cast<double>(second)) continue;
     taken2[bestJ] = true;
     matches.push_back({i, bestJ});
     bins.push_back(rotationBin(kf1.keypoints[i].angle, kf2.keypoints[bestJ].angle, kRotationBins));

@@ -31,7 +31,7 @@ TEST(LocalMappingParams, DefaultsAreOrbSlamAndBadValuesNameTheKey) {
   LocalMappingParams p;
   EXPECT_EQ(p.covisibleKeyFrames, 20);
   EXPECT_EQ(p.maxDescriptorDistance, 50);
-  EXPECT_DOUBLE_EQ(p.nnRatio, 0.6);
+  EXPECT_DOUBLE_EQ(p.nnRatio, 1.0);  // ORB-SLAM2 SearchForTriangulation: no ratio test
   EXPECT_EQ(p.ba.maxLocalKeyFrames, 20);
   EXPECT_EQ(p.pointPolicy.model, landmarks::MapPointModel::Heuristic);
   EXPECT_NO_THROW(p.check());
@@ -150,7 +150,7 @@ TEST(LocalMapper, TriangulationWithPixelNoiseMeetsTheFirstOrderDepthError) {
 }
 
 // Two scene points on the same epipolar line (same height and depth, 0.3 m apart). With the same descriptor
-// the match is ambiguous and the ratio test (0.6) must reject both; with distinct descriptors (control)
+// the match is ambiguous and the optional ratio test (nnRatio = 0.6) must reject both; with distinct descriptors (control)
 // both are triangulated.
 TEST(LocalMapper, AmbiguousEpipolarCandidatesFailTheRatioTest) {
   for (const bool sameDescriptor : {true, false}) {
@@ -165,7 +165,9 @@ TEST(LocalMapper, AmbiguousEpipolarCandidatesFailTheRatioTest) {
     for (int slot : {0, 2})
       for (int i : {100, 101}) ASSERT_GE(s.keypointOf[slot][i], 0);
     addTruePoints(map, s, 0, 40, 0, {0, 2});
-    LocalMapper mapper(map, heuristicParams());
+    LocalMappingParams params = heuristicParams();
+    params.nnRatio = 0.6;  // the optional ratio test (off by default, as ORB-SLAM2)
+    LocalMapper mapper(map, params);
     const std::vector<MapPointId> created = mapper.createNewMapPoints(kf1);
     EXPECT_GT(created.size(), 150u);
     int ambiguousCreated = 0;
