@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -135,24 +136,34 @@ TEST(SlamE2E, InitializesTracksAndStaysCloseToGroundTruth) {
   EXPECT_EQ(report["summary"]["frames_tracked"], s.framesTracked);
 }
 
-TEST(SlamE2E, BuiltinLocalMapperAlsoTracks) {
-  // The built-in mapper is the fallback when libs/mapping is not built; select it explicitly here so both
-  // mappers are exercised in a full build.
+// Runs the room with the given `[System] localMapper` and checks it tracks closely: both local mappers
+// (libs/system's builtin and libs/mapping's LocalMapper) are exercised in a full build whatever the shipped
+// configs select.
+void expectTracksWithLocalMapper(const std::string& mapper) {
   std::string ini = readText(kConfig);
-  const std::size_t at = ini.find("[System]\n");
-  ASSERT_NE(at, std::string::npos);
-  ini.insert(at + 9, "localMapper = builtin\n");
-  const fs::path config = tempRoot() / "synthetic_builtin.ini";
+  const std::regex key(R"(\nlocalMapper *= *[a-z]+)");
+  if (std::regex_search(ini, key)) {
+    ini = std::regex_replace(ini, key, "\nlocalMapper = " + mapper);
+  } else {
+    const std::size_t at = ini.find("[System]\n");
+    ASSERT_NE(at, std::string::npos);
+    ini.insert(at + 9, "localMapper = " + mapper + "\n");
+  }
+  const fs::path config = tempRoot() / ("synthetic_" + mapper + ".ini");
   std::ofstream(config) << ini;
-  const fs::path out = tempRoot() / "builtin";
+  const fs::path out = tempRoot() / ("mapper_" + mapper);
   const auto s = runSlam(out, 1, false, roomRawlog(), config);
   ASSERT_TRUE(s.initialized());
   EXPECT_EQ(s.framesLost, 0u);
   const auto report = nlohmann::json::parse(readText(out / "report.json"));
-  EXPECT_EQ(report["local_mapper"], "builtin");
+  EXPECT_EQ(report["local_mapper"], mapper);
   const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
   EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
 }
+
+TEST(SlamE2E, BuiltinLocalMapperTracks) { expectTracksWithLocalMapper("builtin"); }
+
+TEST(SlamE2E, LibsMappingLocalMapperTracks) { expectTracksWithLocalMapper("mapping"); }
 
 TEST(SlamE2E, SameSeedGivesBitIdenticalTrajectories) {
   const fs::path a = tempRoot() / "det_a", b = tempRoot() / "det_b";
