@@ -89,8 +89,26 @@ void Map::eraseKeyFrame(KeyFrameId id) {
   }
   for (KeyFrameId c : orphans)
     if (kf.parent != kNoKeyFrame) setParent(c, kf.parent);
-  if (kf.parent != kNoKeyFrame) kfRef(kf.parent).children.erase(id);
+  if (kf.parent != kNoKeyFrame) {
+    kfRef(kf.parent).children.erase(id);
+    erased_[id] = ErasedKeyFrame{kf.parent, kf.T_cam_world * keyFrame(kf.parent).T_world_cam()};
+  }
   keyframes_.erase(id);
+}
+
+std::optional<Eigen::Isometry3d> Map::keyFramePoseIncludingErased(KeyFrameId id) const {
+  Eigen::Isometry3d T_cam_current = Eigen::Isometry3d::Identity();  // this keyframe relative to `current`
+  KeyFrameId current = id;
+  // Each link points to a keyframe that existed when `current` was erased, i.e. to an older erasure or a
+  // living keyframe, so the walk ends; the bound guards against a corrupted history.
+  for (std::size_t steps = 0; steps <= erased_.size(); ++steps) {
+    if (auto it = keyframes_.find(current); it != keyframes_.end()) return T_cam_current * it->second.T_cam_world;
+    auto e = erased_.find(current);
+    if (e == erased_.end()) return std::nullopt;
+    T_cam_current = T_cam_current * e->second.T_cam_parent;
+    current = e->second.parent;
+  }
+  return std::nullopt;
 }
 
 void Map::setParent(KeyFrameId child, KeyFrameId parent) {

@@ -105,6 +105,33 @@ TEST(Map, EraseObservationAndKeyFrameKeepWeightsAndReanchor) {
   EXPECT_THROW(map.eraseKeyFrame(map.rootKeyFrame()), pslam::Error);
 }
 
+TEST(Map, ErasedKeyFramePoseFollowsItsParentChain) {
+  SyntheticScene scene;
+  Map map = buildSyntheticMap(6, 300, scene);
+  const KeyFrameId a = scene.keyframeIds[2], b = scene.keyframeIds[3];
+  const Eigen::Isometry3d Ta = map.keyFrame(a).T_cam_world, Tb = map.keyFrame(b).T_cam_world;
+  ASSERT_TRUE(map.keyFramePoseIncludingErased(a).has_value());
+  EXPECT_TRUE(map.keyFramePoseIncludingErased(a)->isApprox(Ta));
+  EXPECT_FALSE(map.keyFramePoseIncludingErased(999).has_value());
+
+  map.eraseKeyFrame(a);
+  map.eraseKeyFrame(b);  // b's parent may have been a: the chain then has two erased links
+  ASSERT_TRUE(map.keyFramePoseIncludingErased(a).has_value());
+  EXPECT_NEAR((map.keyFramePoseIncludingErased(a)->matrix() - Ta.matrix()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((map.keyFramePoseIncludingErased(b)->matrix() - Tb.matrix()).norm(), 0.0, 1e-12);
+
+  // Moving every living keyframe by one rigid motion (what a bundle adjustment's gauge change does) moves the
+  // erased ones with it: their poses are kept relative to the spanning tree.
+  Eigen::Isometry3d G = Eigen::Isometry3d::Identity();
+  G.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, -0.4).normalized()).toRotationMatrix();
+  G.translation() = Eigen::Vector3d(0.5, -1.0, 2.0);
+  std::vector<KeyFrameId> living;
+  for (const auto& [id, kf] : map.keyFrames()) living.push_back(id);
+  for (KeyFrameId id : living) map.setKeyFramePose(id, map.keyFrame(id).T_cam_world * G);
+  EXPECT_NEAR((map.keyFramePoseIncludingErased(a)->matrix() - (Ta * G).matrix()).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((map.keyFramePoseIncludingErased(b)->matrix() - (Tb * G).matrix()).norm(), 0.0, 1e-9);
+}
+
 TEST(Map, ReanchorPointAtInfinityKeepsDirection) {
   SyntheticScene scene;
   Map map = buildSyntheticMap(3, 50, scene);

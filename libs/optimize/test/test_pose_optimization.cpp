@@ -138,3 +138,35 @@ TEST(PoseOptimization, ParamsLoadAndCheck) {
     EXPECT_NE(std::string(e.what()).find("huberDelta"), std::string::npos) << e.what();
   }
 }
+
+// The solver's Jacobian (left perturbation of T_cam_world) against central differences through the retraction.
+TEST(PoseOptimization, ResidualJacobianMatchesFiniteDifferences) {
+  const PoseScene s = makeScene(50, 0.0, 5);
+  std::mt19937 rng(9);
+  const Eigen::Isometry3d T = perturb(s.T_true, 2.0 * M_PI / 180.0, 0.1, rng);
+  const auto cam = testCamera();
+  double worst = 0.0;
+  for (const PoseObservation& o : s.observations) {
+    Eigen::Vector2d r;
+    Eigen::Matrix<double, 2, 6> J;
+    ASSERT_TRUE(poseOnlyResidual(T, cam, o, r, &J));
+    Eigen::Matrix<double, 2, 6> numeric;
+    const double h = 1e-6;
+    for (int k = 0; k < 6; ++k) {
+      Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
+      xi[k] = h;
+      Eigen::Vector2d rp, rm;
+      poseOnlyResidual(retractPoseLeft(xi, T), cam, o, rp, nullptr);
+      poseOnlyResidual(retractPoseLeft(-xi, T), cam, o, rm, nullptr);
+      numeric.col(k) = (rp - rm) / (2.0 * h);
+    }
+    worst = std::max(worst, (J - numeric).cwiseAbs().maxCoeff() / std::max(1.0, J.cwiseAbs().maxCoeff()));
+  }
+  EXPECT_LT(worst, 1e-6);
+  // Behind the camera: reported, residual still finite.
+  PoseObservation behind = s.observations.front();
+  behind.p_world = T.inverse() * Eigen::Vector3d(0.1, 0.2, -3.0);
+  Eigen::Vector2d r;
+  EXPECT_FALSE(poseOnlyResidual(T, cam, behind, r, nullptr));
+  EXPECT_TRUE(r.allFinite());
+}

@@ -147,8 +147,9 @@ SlamRunSummary SlamRunApp::run() {
     for (const TrackedPose& p : poses) {
       if (p.generation != lastGeneration) continue;  // poses of a map discarded by a reset
       Eigen::Isometry3d T_cam_world = p.T_cam_world;
-      if (p.reference != map::kNoKeyFrame && m.hasKeyFrame(p.reference))
-        T_cam_world = p.T_cam_ref * m.keyFrame(p.reference).T_cam_world;
+      // The reference keyframe may have been culled since: its pose then follows its spanning-tree parent.
+      if (p.reference != map::kNoKeyFrame)
+        if (const auto T_ref_world = m.keyFramePoseIncludingErased(p.reference)) T_cam_world = p.T_cam_ref * *T_ref_world;
       trajectory.emplace_back(p.timestamp, T_cam_world.inverse());
     }
     std::stable_sort(trajectory.begin(), trajectory.end(),

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,13 @@ class Map {
   const std::map<KeyFrameId, KeyFrame>& keyFrames() const { return keyframes_; }
   std::size_t numKeyFrames() const { return keyframes_.size(); }
   void setKeyFramePose(KeyFrameId id, const Eigen::Isometry3d& T_cam_world);
+  /// T_cam_world of keyframe `id`, also after it was erased: eraseKeyFrame records the erased keyframe's pose
+  /// relative to its spanning-tree parent (ORB-SLAM's KeyFrame::mTcp), and the pose is composed along those
+  /// links up to a keyframe still in the map, whose current (bundle-adjusted) pose is used. Frames tracked
+  /// against a keyframe that local mapping later culled are placed this way. nullopt for an id never seen or
+  /// erased without a parent (the last keyframe). The erasure records are run-time history: not serialized,
+  /// not compared by operator==.
+  std::optional<Eigen::Isometry3d> keyFramePoseIncludingErased(KeyFrameId id) const;
 
   // ---- map points ----
   /// Creates a point at `p_world` anchored in keypoint `keypoint` of `anchor` (which then observes it).
@@ -136,6 +144,11 @@ class Map {
 
   std::map<KeyFrameId, KeyFrame> keyframes_;
   std::map<MapPointId, MapPoint> points_;
+  struct ErasedKeyFrame {
+    KeyFrameId parent;
+    Eigen::Isometry3d T_cam_parent;
+  };
+  std::map<KeyFrameId, ErasedKeyFrame> erased_;  ///< see keyFramePoseIncludingErased
   KeyFrameId nextKeyFrameId_ = 0;
   MapPointId nextMapPointId_ = 0;
 };
