@@ -157,6 +157,16 @@ void expectTracksWithLocalMapper(const std::string& mapper) {
   EXPECT_EQ(s.framesLost, 0u);
   const auto report = nlohmann::json::parse(readText(out / "report.json"));
   EXPECT_EQ(report["local_mapper"], mapper);
+  // Every mapped keyframe is either still in the map or was culled as redundant (both mappers cull).
+  int mapped = 0, culled = 0, generation = 0;
+  for (const auto& m : report["mapping"]) generation = std::max(generation, m.at("generation").get<int>());
+  for (const auto& m : report["mapping"]) {
+    if (m.at("generation").get<int>() != generation) continue;  // keyframes of a map discarded by a reset
+    ++mapped;
+    culled += m.at("culled_keyframes").get<int>();
+  }
+  EXPECT_GT(mapped, 2);
+  EXPECT_EQ(mapped - culled, report["summary"]["keyframes"].get<int>());
   const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
   EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
 }

@@ -15,6 +15,8 @@
 #include "pslam/landmarks/MeasurementVariance.h"
 #include "pslam/mapping/LocalMapper.h"
 
+#include "pslam/map/KeyFrameCulling.h"
+
 namespace pslam::mapping {
 
 using map::KeyFrame;
@@ -526,39 +528,10 @@ optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId
 // ------------------------------------------------------------------------------------ 6. KeyFrameCulling
 
 int LocalMapper::cullKeyFrames(KeyFrameId kfId) {
-  if (map_.numKeyFrames() <= 2) return 0;
-  // Never the first two keyframes (the initial map, which also fixes the gauge).
-  auto it = map_.keyFrames().begin();
-  const KeyFrameId firstId = it->first;
-  const KeyFrameId secondId = std::next(it)->first;
-  int culled = 0;
-  for (KeyFrameId candidate : map_.covisibleKeyFrames(kfId, 1)) {
-    if (candidate == firstId || candidate == secondId || candidate == kfId || !map_.hasKeyFrame(candidate)) continue;
-    const KeyFrame& kf = map_.keyFrame(candidate);
-    int numPoints = 0, numRedundant = 0;
-    for (std::size_t k = 0; k < kf.numKeypoints(); ++k) {
-      const MapPointId id = kf.mapPointIds[k];
-      if (id == map::kNoMapPoint) continue;
-      const MapPoint& p = map_.mapPoint(id);
-      if (p.bad) continue;
-      ++numPoints;
-      if (static_cast<int>(p.numObservations()) <= params_.redundantMinObservers) continue;
-      const int level = kf.keypoints[k].octave;
-      int observers = 0;
-      for (const auto& [other, ko] : p.observations) {
-        if (other == candidate) continue;
-        // Same or finer scale (ORB-SLAM allows one level coarser).
-        if (map_.keyFrame(other).keypoints[ko].octave <= level + 1 && ++observers >= params_.redundantMinObservers)
-          break;
-      }
-      if (observers >= params_.redundantMinObservers) ++numRedundant;
-    }
-    if (numPoints > 0 && numRedundant > params_.redundantFraction * numPoints) {
-      map_.eraseKeyFrame(candidate);
-      ++culled;
-    }
-  }
-  return culled;
+  map::KeyFrameCullingParams culling;
+  culling.redundantFraction = params_.redundantFraction;
+  culling.redundantMinObservers = params_.redundantMinObservers;
+  return map::cullRedundantKeyFrames(map_, kfId, culling);
 }
 
 // ------------------------------------------------------------------------------------ all steps

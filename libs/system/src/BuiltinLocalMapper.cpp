@@ -26,6 +26,9 @@ void BuiltinMappingParams::loadFromConfigFile(const mrpt::config::CConfigFileBas
   localBundleAdjustment = cfg.read_bool(s, "localBundleAdjustment", localBundleAdjustment);
   fusionNeighbours = cfg.read_int(s, "fusionNeighbours", fusionNeighbours);
   fusionRadius = cfg.read_double(s, "fusionRadius", fusionRadius);
+  cullKeyFrames = cfg.read_bool(s, "cullKeyFrames", cullKeyFrames);
+  culling.redundantFraction = cfg.read_double(s, "redundantFraction", culling.redundantFraction);
+  culling.redundantMinObservers = cfg.read_int(s, "redundantMinObservers", culling.redundantMinObservers);
 }
 
 void BuiltinMappingParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& s) const {
@@ -36,6 +39,9 @@ void BuiltinMappingParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, 
   cfg.write(s, "localBundleAdjustment", localBundleAdjustment);
   cfg.write(s, "fusionNeighbours", fusionNeighbours);
   cfg.write(s, "fusionRadius", fusionRadius);
+  cfg.write(s, "cullKeyFrames", cullKeyFrames);
+  cfg.write(s, "redundantFraction", culling.redundantFraction);
+  cfg.write(s, "redundantMinObservers", culling.redundantMinObservers);
 }
 
 void BuiltinMappingParams::check() const {
@@ -45,6 +51,7 @@ void BuiltinMappingParams::check() const {
   require(maxParallaxCos > 0 && maxParallaxCos < 1, "[LocalMapping] maxParallaxCos", "must be in (0, 1)");
   require(fusionNeighbours >= 0, "[LocalMapping] fusionNeighbours", "must be >= 0");
   require(fusionRadius > 0, "[LocalMapping] fusionRadius", "must be > 0");
+  culling.check("LocalMapping");
   ba.check();
 }
 
@@ -300,6 +307,7 @@ MappingStepReport BuiltinLocalMapper::processKeyFrame(map::KeyFrameId kf,
     rep.baObservationsErased = optimize::applyResult(map_, problem, result, true).observationsErased;
     rep.localBaMs = ms(t0);
   }
+  if (params_.cullKeyFrames) rep.culledKeyFrames = map::cullRedundantKeyFrames(map_, kf, params_.culling);
   return rep;
 }
 

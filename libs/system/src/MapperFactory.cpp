@@ -22,6 +22,7 @@ class MappingLibraryMapper : public KeyFrameMapper {
     MappingStepReport out;
     out.newPoints = r.newPoints;
     out.culledPoints = r.culledPoints;
+    out.culledKeyFrames = r.culledKeyFrames;
     out.baObservationsErased = r.baObservationsErased;
     out.fused = r.fusedPoints;
     out.fusionMs = r.fusionMs;

@@ -44,7 +44,7 @@ void SlamSystem::mapKeyFrames(const std::vector<map::KeyFrameId>& kfs, StageTimi
     if (!map_.hasKeyFrame(kf)) continue;  // erased meanwhile
     const MappingStepReport r = mapper_->processKeyFrame(kf, {});
     mappingLog_.push_back({{"generation", generation_}, {"keyframe", kf}, {"new_points", r.newPoints},
-                           {"culled_points", r.culledPoints}, {"ba_observations_erased", r.baObservationsErased}, {"fused", r.fused},
+                           {"culled_points", r.culledPoints}, {"culled_keyframes", r.culledKeyFrames}, {"ba_observations_erased", r.baObservationsErased}, {"fused", r.fused},
                            {"map_points", map_.numMapPoints()}, {"keyframes", map_.numKeyFrames()}});
     timings.add("triangulation", r.triangulationMs);
     timings.add("local_ba", r.localBaMs);

@@ -10,6 +10,7 @@
 #include <mrpt/config/CConfigFileBase.h>
 #include <nlohmann/json.hpp>
 
+#include "pslam/map/KeyFrameCulling.h"
 #include "pslam/map/Map.h"
 #include "pslam/optimize/Params.h"
 
@@ -18,6 +19,7 @@ namespace pslam::system {
 struct MappingStepReport {
   int newPoints = 0;
   int culledPoints = 0;
+  int culledKeyFrames = 0;  ///< redundant keyframes erased (KeyFrameCulling)
   int baObservationsErased = 0;
   int fused = 0;  ///< duplicates merged + observations added by fusion
   double fusionMs = 0;
@@ -45,6 +47,8 @@ struct BuiltinMappingParams {
   int fusionNeighbours = 20;      ///< SearchInNeighbors: first-order neighbours (ORB-SLAM monocular 20)
   double fusionRadius = 3.0;      ///< Fuse window th * scale^level (ORB-SLAM th = 3)
   bool localBundleAdjustment = true;
+  bool cullKeyFrames = true;         ///< key cullKeyFrames: ORB-SLAM KeyFrameCulling after local BA
+  map::KeyFrameCullingParams culling;  ///< keys redundantFraction (0.9), redundantMinObservers (3)
   optimize::BundleAdjustmentParams ba;
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);

@@ -1,0 +1,21 @@
+#pragma once
+// ORB-SLAM's KeyFrameCulling (thesis §2.4.1, local mapping): a keyframe covisible with the newest one is erased
+// when more than `redundantFraction` of its map points are seen by at least `redundantMinObservers` other
+// keyframes at the same or a finer scale (one pyramid level coarser allowed). The first two keyframes (the
+// initial map, which fixes the gauge) and the newest one are never erased. Shared by both local mappers.
+#include "pslam/map/Map.h"
+
+namespace pslam::map {
+
+struct KeyFrameCullingParams {
+  double redundantFraction = 0.9;  ///< ORB-SLAM: 90 % of the points redundant
+  int redundantMinObservers = 3;   ///< ORB-SLAM thObs = 3
+  /// Throws pslam::Error naming `section` and the key.
+  void check(const std::string& section) const;
+};
+
+/// Examines the keyframes covisible with `newest` (ascending id) and erases the redundant ones
+/// (Map::eraseKeyFrame, which records their pose relative to the spanning tree). Returns how many were erased.
+int cullRedundantKeyFrames(Map& map, KeyFrameId newest, const KeyFrameCullingParams& params);
+
+}  // namespace pslam::map
