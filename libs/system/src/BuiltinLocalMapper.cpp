@@ -220,6 +220,9 @@ int fuseInto(map::Map& m, map::KeyFrameId target, const std::vector<map::MapPoin
     if (!kf.camera.inImage(uv)) continue;
     const Eigen::Vector3d po = pw - centre;
     const double dist = po.norm();
+    // Tighter than ORB-SLAM's Fuse, which accepts [0.8 minDistance, 1.2 maxDistance] (libs/mapping does): with
+    // that band this mapper fused 2.5x more on KITTI 00, the tracker's 90 %-of-reference keyframe rule then
+    // fired more often (85 vs 61 keyframes) and CPU doubled at no accuracy gain (ATE 0.72 vs 0.67 m; doc/slam.md).
     if (dist < p.minDistance || dist > p.maxDistance) continue;
     if (p.normal.norm() > 0 && po.dot(p.normal) < 0.5 * dist) continue;
     const int level = std::clamp(static_cast<int>(std::ceil(std::log(p.maxDistance / dist) / logScale)), 0, levels - 1);
