@@ -136,19 +136,14 @@ TEST(SlamE2E, InitializesTracksAndStaysCloseToGroundTruth) {
   EXPECT_EQ(report["summary"]["frames_tracked"], s.framesTracked);
 }
 
-// Runs the room with the given `[System] localMapper` and checks it tracks closely: both local mappers
-// (libs/system's builtin and libs/mapping's LocalMapper) are exercised in a full build whatever the shipped
-// configs select.
-void expectTracksWithLocalMapper(const std::string& mapper) {
+// Runs the room with the shipped config but ORB-SLAM's fusion distance band ([LocalMapping] fusionDistanceBand,
+// shipped 0) and checks it tracks closely, culls consistently and reports the mapper.
+void expectTracksWithFusionBand(const std::string& band) {
   std::string ini = readText(kConfig);
-  const std::regex key(R"(\nlocalMapper *= *[a-z]+)");
-  if (std::regex_search(ini, key)) {
-    ini = std::regex_replace(ini, key, "\nlocalMapper = " + mapper);
-  } else {
-    const std::size_t at = ini.find("[System]\n");
-    ASSERT_NE(at, std::string::npos);
-    ini.insert(at + 9, "localMapper = " + mapper + "\n");
-  }
+  const std::regex key(R"(\nfusionDistanceBand *= *[0-9.]+)");
+  ASSERT_TRUE(std::regex_search(ini, key)) << "the shipped synthetic.ini sets fusionDistanceBand";
+  ini = std::regex_replace(ini, key, "\nfusionDistanceBand = " + band);
+  const std::string mapper = "band_" + band;
   const fs::path config = tempRoot() / ("synthetic_" + mapper + ".ini");
   std::ofstream(config) << ini;
   const fs::path out = tempRoot() / ("mapper_" + mapper);
@@ -156,8 +151,9 @@ void expectTracksWithLocalMapper(const std::string& mapper) {
   ASSERT_TRUE(s.initialized());
   EXPECT_EQ(s.framesLost, 0u);
   const auto report = nlohmann::json::parse(readText(out / "report.json"));
-  EXPECT_EQ(report["local_mapper"], mapper);
-  // Every mapped keyframe is either still in the map or was culled as redundant (both mappers cull).
+  EXPECT_EQ(report["local_mapper"], "mapping");
+  EXPECT_NE(report["local_mapper_config"].get<std::string>().find("fusionDistanceBand"), std::string::npos);
+  // Every mapped keyframe is either still in the map or was culled as redundant.
   int mapped = 0, culled = 0, generation = 0;
   for (const auto& m : report["mapping"]) generation = std::max(generation, m.at("generation").get<int>());
   for (const auto& m : report["mapping"]) {
@@ -171,9 +167,9 @@ void expectTracksWithLocalMapper(const std::string& mapper) {
   EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
 }
 
-TEST(SlamE2E, BuiltinLocalMapperTracks) { expectTracksWithLocalMapper("builtin"); }
+TEST(SlamE2E, ShippedFusionBandTracks) { expectTracksWithFusionBand("0"); }
 
-TEST(SlamE2E, LibsMappingLocalMapperTracks) { expectTracksWithLocalMapper("mapping"); }
+TEST(SlamE2E, OrbSlamFusionBandTracks) { expectTracksWithFusionBand("0.2"); }
 
 TEST(SlamE2E, SameSeedGivesBitIdenticalTrajectories) {
   const fs::path a = tempRoot() / "det_a", b = tempRoot() / "det_b";

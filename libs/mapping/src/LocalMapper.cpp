@@ -426,7 +426,9 @@ int LocalMapper::fuseInto(KeyFrameId kfId, const std::vector<MapPointId>& points
     if (!kf.camera.inImage(uv)) continue;
     const Eigen::Vector3d PO = X - kf.cameraCenter();
     const double dist3D = PO.norm();
-    if (dist3D < 0.8 * p.minDistance || dist3D > 1.2 * p.maxDistance) continue;
+    if (dist3D < (1.0 - params_.fusionDistanceBand) * p.minDistance ||
+        dist3D > (1.0 + params_.fusionDistanceBand) * p.maxDistance)
+      continue;
     if (PO.dot(p.normal) < 0.5 * dist3D) continue;  // viewing angle > 60 deg from the mean
     const int predictedLevel = map_.predictScale(id, dist3D, kfId);
     const double radius = params_.fusionRadiusPixels * kf.scaleFactors.at(predictedLevel);

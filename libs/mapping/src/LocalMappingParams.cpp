@@ -20,6 +20,7 @@ void LocalMappingParams::loadFromConfigFile(const mrpt::config::CConfigFileBase&
   fusionNeighbours = cfg.read_int(s, "fusionNeighbours", fusionNeighbours);
   fusionSecondOrderNeighbours = cfg.read_int(s, "fusionSecondOrderNeighbours", fusionSecondOrderNeighbours);
   fusionRadiusPixels = cfg.read_double(s, "fusionRadius", fusionRadiusPixels);
+  fusionDistanceBand = cfg.read_double(s, "fusionDistanceBand", fusionDistanceBand);
   // The map-point model defaults to ORB-SLAM* (heuristic) unless the section names one.
   pointPolicy.loadFromConfigFile(cfg, s);
   keypointModel.loadFromConfigFile(cfg, s);
@@ -44,6 +45,7 @@ void LocalMappingParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, co
   cfg.write(s, "fusionNeighbours", fusionNeighbours);
   cfg.write(s, "fusionSecondOrderNeighbours", fusionSecondOrderNeighbours);
   cfg.write(s, "fusionRadius", fusionRadiusPixels);
+  cfg.write(s, "fusionDistanceBand", fusionDistanceBand);
   pointPolicy.saveToConfigFile(cfg, s);
   keypointModel.saveToConfigFile(cfg, s);
   matchingAccuracy.saveToConfigFile(cfg, s);
@@ -70,6 +72,8 @@ void LocalMappingParams::check() const {
   require(fusionNeighbours >= 0, c + "fusionNeighbours", "must be >= 0");
   require(fusionSecondOrderNeighbours >= 0, c + "fusionSecondOrderNeighbours", "must be >= 0");
   require(std::isfinite(fusionRadiusPixels) && fusionRadiusPixels > 0.0, c + "fusionRadius", "must be > 0");
+  require(std::isfinite(fusionDistanceBand) && fusionDistanceBand >= 0.0 && fusionDistanceBand < 1.0,
+          c + "fusionDistanceBand", "must be in [0, 1)");
   require(std::isfinite(depthPixelNoise) && depthPixelNoise > 0.0, c + "depthPixelNoise", "must be > 0");
   require(redundantFraction > 0.0 && redundantFraction <= 1.0, c + "redundantFraction", "must be in (0, 1]");
   require(redundantMinObservers >= 1, c + "redundantMinObservers", "must be >= 1");

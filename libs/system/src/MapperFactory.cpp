@@ -1,17 +1,13 @@
-// Chooses the local mapper. The libs/mapping adapter is compiled only when that library is part of the build
-// (PSLAM_HAVE_MAPPING), so the system builds and runs with the built-in mapper alone.
+// The local mapper behind the KeyFrameMapper interface: libs/mapping's LocalMapper.
 #include <mrpt/config/CConfigFileMemory.h>
 
 #include "pslam/core/Error.h"
 #include "pslam/system/KeyFrameMapper.h"
 
-#ifdef PSLAM_HAVE_MAPPING
 #include "pslam/mapping/LocalMapper.h"
-#endif
 
 namespace pslam::system {
 
-#ifdef PSLAM_HAVE_MAPPING
 namespace {
 class MappingLibraryMapper : public KeyFrameMapper {
  public:
@@ -43,28 +39,15 @@ class MappingLibraryMapper : public KeyFrameMapper {
   mapping::LocalMapper mapper_;
 };
 }  // namespace
-bool haveMappingLibrary() { return true; }
-#else
-bool haveMappingLibrary() { return false; }
-#endif
 
-std::unique_ptr<KeyFrameMapper> makeKeyFrameMapper(const std::string& which, map::Map& map, const std::string& iniText,
-                                                   const BuiltinMappingParams& builtinParams) {
-  const std::string choice = which == "auto" ? (haveMappingLibrary() ? "mapping" : "builtin") : which;
-  if (choice == "builtin") return std::make_unique<BuiltinLocalMapper>(map, builtinParams);
-  if (choice == "mapping") {
-#ifdef PSLAM_HAVE_MAPPING
-    mrpt::config::CConfigFileMemory cfg(iniText);
-    mapping::LocalMappingParams p;
-    p.loadFromConfigFile(cfg, "LocalMapping");
-    p.ba = builtinParams.ba;
-    return std::make_unique<MappingLibraryMapper>(map, p);
-#else
-    (void)iniText;
-    throw Error("[System] localMapper: 'mapping' requested but libs/mapping is not part of this build");
-#endif
-  }
-  throw Error("[System] localMapper: unknown value '" + which + "' (auto | builtin | mapping)");
+std::unique_ptr<KeyFrameMapper> makeKeyFrameMapper(const std::string& which, map::Map& map,
+                                                   const mapping::LocalMappingParams& params) {
+  if (which == "builtin")
+    throw Error("[System] localMapper: 'builtin' was merged into libs/mapping; use localMapper = mapping and "
+                "[LocalMapping] fusionDistanceBand = 0 for its fusion gate");
+  if (which != "auto" && which != "mapping")
+    throw Error("[System] localMapper: unknown value '" + which + "' (auto | mapping)");
+  return std::make_unique<MappingLibraryMapper>(map, params);
 }
 
 }  // namespace pslam::system

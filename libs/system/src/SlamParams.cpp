@@ -51,8 +51,11 @@ void SlamParams::check() const {
   withSection("PoseOptimization", [&] { poseOptimization.check(); });
   withSection("BundleAdjustment", [&] { bundleAdjustment.check(); });
   mapping.check();
-  require(localMapper == "auto" || localMapper == "builtin" || localMapper == "mapping", "[System] localMapper",
-          "must be auto, builtin or mapping (got '" + localMapper + "')");
+  require(localMapper != "builtin", "[System] localMapper",
+          "'builtin' was merged into libs/mapping; use mapping (with [LocalMapping] fusionDistanceBand = 0 for its "
+          "fusion gate)");
+  require(localMapper == "auto" || localMapper == "mapping", "[System] localMapper",
+          "must be auto or mapping (got '" + localMapper + "')");
 }
 
 std::string SlamParams::toIniText() const {

@@ -23,7 +23,7 @@ SlamSystem::SlamSystem(const SlamParams& params, const geometry::PinholeCamera& 
   tracker_ = std::make_unique<tracking::Tracker>(
       map_, camera_, params_.tracking, params_.initializer, params_.bundleAdjustment,
       std::make_unique<tracking::FullPoseSolver>(params_.poseOptimization), seed);
-  mapper_ = makeKeyFrameMapper(params_.localMapper, map_, params_.sourceIni, params_.mapping);
+  mapper_ = makeKeyFrameMapper(params_.localMapper, map_, params_.mapping);
   mapperName_ = mapper_->name();
   if (threaded_) worker_ = std::thread([this] { mappingLoop(); });
 }

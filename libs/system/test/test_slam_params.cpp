@@ -30,7 +30,8 @@ TEST(SlamParams, RoundTripThroughIni) {
   p.initializer.minMatches = 77;
   p.mapping.covisibleKeyFrames = 7;
   p.threaded = true;
-  p.localMapper = "builtin";
+  p.localMapper = "mapping";
+  p.mapping.fusionDistanceBand = 0.0;
   mrpt::config::CConfigFileMemory mem(p.toIniText());
   system::SlamParams q;
   q.loadFromConfigFile(mem);
@@ -39,7 +40,8 @@ TEST(SlamParams, RoundTripThroughIni) {
   EXPECT_EQ(q.initializer.minMatches, 77);
   EXPECT_EQ(q.mapping.covisibleKeyFrames, 7);
   EXPECT_TRUE(q.threaded);
-  EXPECT_EQ(q.localMapper, "builtin");
+  EXPECT_EQ(q.localMapper, "mapping");
+  EXPECT_EQ(q.mapping.fusionDistanceBand, 0.0);
   EXPECT_EQ(q.toIniText(), p.toIniText());
 }
 
@@ -49,6 +51,9 @@ TEST(SlamParams, InvalidValuesNameTheKey) {
   EXPECT_NE(errorFor("[Initializer]\nminMatches = 3\n").find("minMatches"), std::string::npos);
   EXPECT_NE(errorFor("[LocalMapping]\nmaxParallaxCos = 1\n").find("maxParallaxCos"), std::string::npos);
   EXPECT_NE(errorFor("[System]\nlocalMapper = magic\n").find("localMapper"), std::string::npos);
+  // The former builtin mapper: the error says where it went.
+  EXPECT_NE(errorFor("[System]\nlocalMapper = builtin\n").find("fusionDistanceBand = 0"), std::string::npos);
+  EXPECT_NE(errorFor("[LocalMapping]\nfusionDistanceBand = 1.5\n").find("fusionDistanceBand"), std::string::npos);
   EXPECT_NE(errorFor("[ORB]\nnLevels = 0\n").find("nLevels"), std::string::npos);
   EXPECT_EQ(errorFor(""), "");
 }

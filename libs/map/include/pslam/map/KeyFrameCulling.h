@@ -2,7 +2,7 @@
 // ORB-SLAM's KeyFrameCulling (thesis §2.4.1, local mapping): a keyframe covisible with the newest one is erased
 // when more than `redundantFraction` of its map points are seen by at least `redundantMinObservers` other
 // keyframes at the same or a finer scale (one pyramid level coarser allowed). The first two keyframes (the
-// initial map, which fixes the gauge) and the newest one are never erased. Shared by both local mappers.
+// initial map, which fixes the gauge) and the newest one are never erased. Step 6 of mapping::LocalMapper.
 #include "pslam/map/Map.h"
 
 namespace pslam::map {

@@ -2,7 +2,7 @@
 // All parameters of a SLAM run, one ini section per component (DESIGN.md §5):
 //   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
-//   [LocalMapping] BuiltinMappingParams   [System] threaded
+//   [LocalMapping] mapping::LocalMappingParams   [System] threaded, localMapper
 #include <string>
 
 #include <mrpt/config/CConfigFileBase.h>
@@ -21,9 +21,9 @@ struct SlamParams {
   tracking::TrackerParams tracking;
   optimize::PoseOptimizationParams poseOptimization;
   optimize::BundleAdjustmentParams bundleAdjustment;
-  BuiltinMappingParams mapping;
+  mapping::LocalMappingParams mapping;  ///< [LocalMapping]; mapping.ba is [BundleAdjustment]
   bool threaded = false;  ///< [System] threaded: mapping in a second thread (live use); false = deterministic
-  std::string localMapper = "auto";  ///< [System] localMapper: auto | builtin | mapping (libs/mapping)
+  std::string localMapper = "auto";  ///< [System] localMapper: auto | mapping (the same: libs/mapping)
   std::string sourceIni;  ///< text of the loaded ini (components outside this struct read their keys from it)
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);

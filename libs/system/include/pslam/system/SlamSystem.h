@@ -25,7 +25,7 @@ namespace pslam::system {
 
 class SlamSystem {
  public:
-  /// `mapper` = nullptr uses BuiltinLocalMapper (or the libs/mapping LocalMapper when built in).
+  /// Local mapping is libs/mapping's LocalMapper (behind KeyFrameMapper), configured by params.mapping.
   SlamSystem(const SlamParams& params, const geometry::PinholeCamera& camera, std::uint32_t seed, bool threaded);
   ~SlamSystem();
   SlamSystem(const SlamSystem&) = delete;
