@@ -1,73 +1,18 @@
-// Normals and planar mask from synthetic depth of known planes, and the normal-priors app on a small rawlog.
+// Normals and planar mask from synthetic depth of known planes (the normal-priors app test is in
+// apps/normal-priors).
 #include <gtest/gtest.h>
 
-#include <filesystem>
-#include <fstream>
+#include <algorithm>
 #include <iostream>
-#include <unistd.h>
 
 #include <mrpt/config/CConfigFileMemory.h>
 
+#include "RoomScene.h"
 #include "pslam/core/Error.h"
-#include "pslam/datasets/Rawlog.h"
-#include "pslam/priors/NormalPriorsApp.h"
 #include "pslam/priors/NormalsFromDepth.h"
-
-#include <cmath>
-#include <random>
-
-#include <Eigen/Geometry>
-#include <opencv2/core.hpp>
-
-namespace pslam::priors::test {
-
-struct RoomScene {
-  cv::Mat depth;    ///< CV_32FC1 metres
-  cv::Mat normals;  ///< CV_32FC3 analytic normal of the wall each pixel sees (facing the camera)
-  PinholeIntrinsics K{525.0, 525.0, 319.5, 239.5};
-};
-
-inline RoomScene renderRoom(const Eigen::Matrix3d& R_cam_room, const Eigen::Vector3d& halfSize,
-                            const Eigen::Vector3d& camInRoom, double noiseStd = 0.0, unsigned seed = 1,
-                            int cols = 640, int rows = 480) {
-  RoomScene s;
-  s.depth = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(0));
-  s.normals = cv::Mat(rows, cols, CV_32FC3, cv::Scalar::all(0));
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> g(0.0, 1.0);
-  const Eigen::Matrix3d R_room_cam = R_cam_room.transpose();
-  for (int v = 0; v < rows; ++v) {
-    for (int u = 0; u < cols; ++u) {
-      const Eigen::Vector3d ray((u - s.K.cx) / s.K.fx, (v - s.K.cy) / s.K.fy, 1.0);
-      const Eigen::Vector3d rr = R_room_cam * ray;  // ray in room coordinates
-      double best = 1e18;
-      int bestAxis = -1;
-      double bestSign = 0;
-      for (int a = 0; a < 3; ++a) {
-        if (std::abs(rr(a)) < 1e-12) continue;
-        const double wall = rr(a) > 0 ? halfSize(a) : -halfSize(a);
-        const double t = (wall - camInRoom(a)) / rr(a);
-        if (t > 0 && t < best) {
-          best = t;
-          bestAxis = a;
-          bestSign = rr(a) > 0 ? -1.0 : 1.0;  // the wall's normal points back into the room
-        }
-      }
-      const double z = best + (noiseStd > 0 ? noiseStd * g(rng) : 0.0);
-      s.depth.at<float>(v, u) = static_cast<float>(z);
-      const Eigen::Vector3d nRoom = Eigen::Vector3d::Unit(bestAxis) * bestSign;
-      const Eigen::Vector3d n = R_cam_room * nRoom;
-      s.normals.at<cv::Vec3f>(v, u) = cv::Vec3f(float(n.x()), float(n.y()), float(n.z()));
-    }
-  }
-  return s;
-}
-
-}  // namespace pslam::priors::test
 
 using namespace pslam::priors;
 using pslam::priors::test::renderRoom;
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -178,66 +123,4 @@ TEST(NormalsFromDepth, RejectsBadInputAndParameters) {
   } catch (const pslam::Error& err) {
     EXPECT_NE(std::string(err.what()).find("cellSize"), std::string::npos);
   }
-}
-
-TEST(NormalPriorsApp, AddsNormalsChannelFromDepthAndCopiesGroundTruth) {
-  const fs::path dir = fs::temp_directory_path() / ("pslam_normal_priors_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  struct Cleanup {
-    fs::path p;
-    ~Cleanup() { fs::remove_all(p); }
-  } cleanup{dir};
-  const auto scene = renderRoom(kRoomRotation, kHalfSize, kCamInRoom, 0.0, 1, 320, 240);
-  {
-    pslam::datasets::RawlogWriter w(dir / "room.rawlog");
-    for (int i = 0; i < 2; ++i) {
-      pslam::datasets::Frame f;
-      f.timestamp = 10.0 + i;
-      f.image = cv::Mat(240, 320, CV_8UC3, cv::Scalar(90, 120, 150));
-      f.camera.ncols = 320;
-      f.camera.nrows = 240;
-      f.camera.fx(scene.K.fx);
-      f.camera.fy(scene.K.fy);
-      f.camera.cx(scene.K.cx);
-      f.camera.cy(scene.K.cy);
-      scene.depth.convertTo(f.depth, CV_16U, 5000.0);
-      f.depthUnits = 1.0 / 5000.0;
-      w.write(f);
-    }
-    w.commit();
-  }
-  { std::ofstream(dir / "room_groundtruth.txt") << "10 0 0 0 0 0 0 1\n11 0 0 0 0 0 0 1\n"; }
-  NormalPriorsOptions o;
-  o.input = dir / "room.rawlog";
-  o.output = dir / "out" / "room_n.rawlog";
-  o.progress = false;
-  const NormalPriorsResult r = runNormalPriors(o);
-  EXPECT_EQ(r.frames, 2u);
-  EXPECT_GT(r.meanPlanarShare, 0.8);
-  EXPECT_TRUE(fs::exists(dir / "out" / "room_n_groundtruth.txt"));
-  pslam::datasets::RawlogReader reader(o.output);
-  pslam::datasets::Frame f;
-  std::size_t n = 0;
-  while (reader.next(f)) {
-    ASSERT_TRUE(f.hasNormals());
-    ASSERT_TRUE(f.hasDepth());
-    const cv::Mat dec = decodeNormalMap(f.normals);
-    NormalErrorAccumulator acc;
-    acc.addMaps(dec, scene.normals);
-    EXPECT_GT(acc.summary().count, 0.8 * 320 * 240);
-    EXPECT_LT(acc.summary().medianDeg, 0.5);  // 8-bit quantization only
-    ++n;
-  }
-  EXPECT_EQ(n, 2u);
-  // Bad input names the file.
-  o.input = dir / "missing.rawlog";
-  try {
-    runNormalPriors(o);
-    FAIL() << "expected pslam::Error";
-  } catch (const pslam::Error& err) {
-    EXPECT_NE(std::string(err.what()).find("missing.rawlog"), std::string::npos);
-  }
-  o.input = dir / "room.rawlog";
-  o.source = "magic";
-  EXPECT_THROW(runNormalPriors(o), pslam::Error);
 }

@@ -1,0 +1,89 @@
+// The normal-priors app class on a small rawlog of the synthetic room: NORMALS channel from depth, ground truth
+// copied along, errors naming the file.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+#include "RoomScene.h"
+#include "pslam/core/Error.h"
+#include "pslam/datasets/Rawlog.h"
+#include "pslam/priors/NormalMap.h"
+#include "pslam/priors/NormalPriorsApp.h"
+
+using namespace pslam::priors;
+using pslam::priors::test::renderRoom;
+namespace fs = std::filesystem;
+
+namespace {
+
+const Eigen::Matrix3d kRoomRotation =
+    (Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitX())).toRotationMatrix();
+const Eigen::Vector3d kHalfSize(2.0, 1.3, 3.0);
+const Eigen::Vector3d kCamInRoom(0.3, -0.2, -1.0);
+
+}  // namespace
+
+TEST(NormalPriorsApp, AddsNormalsChannelFromDepthAndCopiesGroundTruth) {
+  const fs::path dir = fs::temp_directory_path() / ("pslam_normal_priors_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  struct Cleanup {
+    fs::path p;
+    ~Cleanup() { fs::remove_all(p); }
+  } cleanup{dir};
+  const auto scene = renderRoom(kRoomRotation, kHalfSize, kCamInRoom, 0.0, 1, 320, 240);
+  {
+    pslam::datasets::RawlogWriter w(dir / "room.rawlog");
+    for (int i = 0; i < 2; ++i) {
+      pslam::datasets::Frame f;
+      f.timestamp = 10.0 + i;
+      f.image = cv::Mat(240, 320, CV_8UC3, cv::Scalar(90, 120, 150));
+      f.camera.ncols = 320;
+      f.camera.nrows = 240;
+      f.camera.fx(scene.K.fx);
+      f.camera.fy(scene.K.fy);
+      f.camera.cx(scene.K.cx);
+      f.camera.cy(scene.K.cy);
+      scene.depth.convertTo(f.depth, CV_16U, 5000.0);
+      f.depthUnits = 1.0 / 5000.0;
+      w.write(f);
+    }
+    w.commit();
+  }
+  { std::ofstream(dir / "room_groundtruth.txt") << "10 0 0 0 0 0 0 1\n11 0 0 0 0 0 0 1\n"; }
+  NormalPriorsOptions o;
+  o.input = dir / "room.rawlog";
+  o.output = dir / "out" / "room_n.rawlog";
+  o.progress = false;
+  const NormalPriorsResult r = runNormalPriors(o);
+  EXPECT_EQ(r.frames, 2u);
+  EXPECT_GT(r.meanPlanarShare, 0.8);
+  EXPECT_TRUE(fs::exists(dir / "out" / "room_n_groundtruth.txt"));
+  pslam::datasets::RawlogReader reader(o.output);
+  pslam::datasets::Frame f;
+  std::size_t n = 0;
+  while (reader.next(f)) {
+    ASSERT_TRUE(f.hasNormals());
+    ASSERT_TRUE(f.hasDepth());
+    const cv::Mat dec = decodeNormalMap(f.normals);
+    NormalErrorAccumulator acc;
+    acc.addMaps(dec, scene.normals);
+    EXPECT_GT(acc.summary().count, 0.8 * 320 * 240);
+    EXPECT_LT(acc.summary().medianDeg, 0.5);  // 8-bit quantization only
+    ++n;
+  }
+  EXPECT_EQ(n, 2u);
+  // Bad input names the file.
+  o.input = dir / "missing.rawlog";
+  try {
+    runNormalPriors(o);
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& err) {
+    EXPECT_NE(std::string(err.what()).find("missing.rawlog"), std::string::npos);
+  }
+  o.input = dir / "room.rawlog";
+  o.source = "magic";
+  EXPECT_THROW(runNormalPriors(o), pslam::Error);
+}
