@@ -11,11 +11,15 @@
 
 int main(int argc, char** argv) {
   using namespace pslam::eval;
-  CLI::App cli{"Trajectory evaluation: ATE, RPE, RE (thesis eq. 4.8) and DR (eq. 2.104), evo-compatible"};
+  CLI::App cli{"Trajectory evaluation: ATE, RPE, RE (thesis eq. 4.8) and DR (eq. 2.104), evo-compatible.\n"
+               "Every default is evo's (evo_ape / evo_rpe with -a / -as) unless its help names another tool; the\n"
+               "TUM benchmark scripts (associate.py, evaluate_ate.py) are reproduced with\n"
+               "--association tum --max-diff 0.02 --align se3. See doc/eval.md."};
+  const EvalOptions defaults;
   std::string gtPath, estPath, gtFormat = "auto", estFormat = "auto", assoc = "nearest", align = "sim3";
   std::string deltaUnit = "frames", configPath, configSection = "slam_eval", jsonPath, plotDir, gtTimes, estTimes;
   std::string depthSamples, depthRawlog;
-  double maxDiff = 0.02, offset = 0.0, delta = 1.0, relTol = 0.1, tau = 0.1;
+  double maxDiff = defaults.association.maxTimeDifference, offset = 0.0, delta = 1.0, relTol = 0.1, tau = 0.1;
   std::size_t alignFirst = 0;
   bool allPairs = false, noRpe = false, drScale = false;
   cli.add_option("ground_truth", gtPath, "ground-truth trajectory (TUM, KITTI or EuRoC csv)")->required();
@@ -26,20 +30,20 @@ int main(int argc, char** argv) {
   cli.add_option("--est-format", estFormat, "auto|tum|kitti|euroc")->capture_default_str();
   cli.add_option("--gt-times", gtTimes, "KITTI times file of the ground truth");
   cli.add_option("--est-times", estTimes, "KITTI times file of the estimate");
-  auto* oAssoc = cli.add_option("--association", assoc, "nearest (evo, default) | tum (one-to-one greedy) | index")
+  auto* oAssoc = cli.add_option("--association", assoc, "nearest (evo's rule, default) | tum (TUM associate.py: one-to-one greedy) | index (KITTI)")
                      ->capture_default_str();
-  auto* oMaxDiff = cli.add_option("--max-diff", maxDiff, "max. time difference for association [s]")->capture_default_str();
+  auto* oMaxDiff = cli.add_option("--max-diff", maxDiff, "max. time difference for association [s]; default = evo's max_diff (TUM associate.py: 0.02)")->capture_default_str();
   auto* oOffset = cli.add_option("--offset", offset, "time offset added to the estimate's stamps [s]")->capture_default_str();
-  auto* oAlign = cli.add_option("--align", align, "none|se3|sim3 (sim3 for monocular runs)")->capture_default_str();
+  auto* oAlign = cli.add_option("--align", align, "none|se3|sim3; default sim3 = evo's -as, for monocular runs (TUM evaluate_ate.py: se3)")->capture_default_str();
   auto* oFirst = cli.add_option("--align-first", alignFirst, "align on the first N pairs only (0 = all)");
-  auto* oDelta = cli.add_option("--delta", delta, "RPE delta")->capture_default_str();
-  auto* oUnit = cli.add_option("--delta-unit", deltaUnit, "RPE delta unit: frames|m")->capture_default_str();
+  auto* oDelta = cli.add_option("--delta", delta, "RPE delta (evo's default)")->capture_default_str();
+  auto* oUnit = cli.add_option("--delta-unit", deltaUnit, "RPE delta unit: frames|m (evo's default frames)")->capture_default_str();
   auto* oAll = cli.add_flag("--all-pairs", allPairs, "RPE over all pairs with the delta, not consecutive ones");
-  auto* oTol = cli.add_option("--rel-tol", relTol, "RPE relative delta tolerance (metres, all pairs)")->capture_default_str();
+  auto* oTol = cli.add_option("--rel-tol", relTol, "RPE relative delta tolerance (metres, all pairs; evo's default)")->capture_default_str();
   auto* oNoRpe = cli.add_flag("--no-rpe", noRpe, "skip RPE");
   cli.add_option("--depths", depthSamples, "map-point depths `timestamp u v depth` for DR");
   cli.add_option("--rawlog", depthRawlog, "rawlog whose DEPTH channel gives the GT depth for DR");
-  auto* oTau = cli.add_option("--tau", tau, "DR relative depth error threshold")->capture_default_str();
+  auto* oTau = cli.add_option("--tau", tau, "DR relative depth error threshold (thesis eq. 2.104, Tateno et al.)")->capture_default_str();
   auto* oDrScale = cli.add_flag("--dr-scale", drScale, "scale estimated depths by the Sim(3) alignment scale");
   cli.add_option("--json", jsonPath, "write the results as JSON (atomic)");
   cli.add_option("--plot-dir", plotDir, "write PNG plots into this folder");

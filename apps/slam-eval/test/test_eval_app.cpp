@@ -37,7 +37,9 @@ TEST(EvalApp, EvaluatesFilesAndWritesJsonAndPlots) {
   const Trajectory gt = makeSpiral(200);
   writeTumTrajectory(d.path / "gt.txt", gt);
   writeTumTrajectory(d.path / "est.txt", monocularEstimate(gt));
-  const EvalApp app(EvalOptions{});  // defaults: nearest 0.02 s, Sim(3), RPE 1 frame
+  const EvalApp app(EvalOptions{});  // defaults: nearest 0.01 s (evo), Sim(3), RPE 1 frame
+  EXPECT_EQ(app.options().association.rule, AssociationRule::Nearest);
+  EXPECT_EQ(app.options().association.maxTimeDifference, 0.01);
   const EvalResult r = app.run(d.path / "gt.txt", d.path / "est.txt");
   EXPECT_EQ(r.gtAssociated.size(), 100u);
   EXPECT_NEAR(r.alignment.scale, 3.0, 1e-6);  // TUM files keep 9 significant digits

@@ -25,7 +25,7 @@ struct EvalOptions {
   TrajectoryFormat gtFormat = TrajectoryFormat::Auto;
   TrajectoryFormat estFormat = TrajectoryFormat::Auto;
   std::filesystem::path gtTimes, estTimes;  ///< KITTI times files (optional)
-  AssociationOptions association;           ///< default: evo's nearest rule, 0.02 s
+  AssociationOptions association;           ///< default: evo's nearest rule and max_diff, 0.01 s
   /// Both KITTI files without times files: association by index is used automatically.
   AlignmentMode alignment = AlignmentMode::Sim3;  ///< monocular default
   std::size_t alignFirstN = 0;                    ///< 0 = all pairs

@@ -28,7 +28,7 @@ std::string toString(AssociationRule rule);
 
 struct AssociationOptions {
   AssociationRule rule = AssociationRule::Nearest;
-  double maxTimeDifference = 0.02;  ///< seconds
+  double maxTimeDifference = 0.01;  ///< seconds; evo's max_diff default (TUM associate.py uses 0.02)
   double offset = 0.0;              ///< seconds, added to the estimate's stamps
 };
 
