@@ -1,0 +1,94 @@
+# CTest driver of the `external_consumer` e2e test (cmake -P). Installs the build tree into a temporary
+# prefix, configures and builds tests/external_consumer against it (find_package(priorslam CONFIG)), renders
+# a short synthetic rawlog with the *installed* slam-synth and runs the consumer on it with the installed
+# config/slam/synthetic.ini. Checks: exit code 0, one output line per frame, a `summary` line, the map file.
+#
+# Variables (-D): BUILD_DIR, SOURCE_DIR, WORK_DIR, CONSUMER_SOURCE; optional FRAMES (40), GENERATOR,
+# COMPILER_LAUNCHER, CXX_COMPILER, KEEP (keep WORK_DIR).
+foreach(v BUILD_DIR SOURCE_DIR WORK_DIR CONSUMER_SOURCE)
+  if(NOT DEFINED ${v})
+    message(FATAL_ERROR "run_external_consumer.cmake: -D${v}=... is required")
+  endif()
+endforeach()
+if(NOT DEFINED FRAMES)
+  set(FRAMES 40)
+endif()
+
+function(run what)
+  string(TIMESTAMP t0 "%s")
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  string(TIMESTAMP t1 "%s")
+  math(EXPR dt "${t1} - ${t0}")
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${what} failed (exit ${rc}):\n  ${ARGN}\n--- stdout\n${out}\n--- stderr\n${err}")
+  endif()
+  message(STATUS "${what}: ok (${dt} s)")
+  set(RUN_OUTPUT "${out}" PARENT_SCOPE)
+endfunction()
+
+set(prefix "${WORK_DIR}/prefix")
+set(build "${WORK_DIR}/consumer-build")
+set(data "${WORK_DIR}/data")
+file(REMOVE_RECURSE "${WORK_DIR}")
+file(MAKE_DIRECTORY "${data}")
+
+# 1. Install the build tree.
+run("install into ${prefix}" ${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${prefix}")
+foreach(f lib/cmake/priorslam/priorslamConfig.cmake lib/cmake/priorslam/priorslamConfigVersion.cmake
+          lib/cmake/priorslam/priorslamTargets.cmake include/pslam/system/System.h include/pslam/datasets/Rawlog.h
+          share/priorslam/config/slam/synthetic.ini bin/slam-synth bin/slam-run bin/slam-eval)
+  if(NOT EXISTS "${prefix}/${f}")
+    message(FATAL_ERROR "installed tree lacks ${f}")
+  endif()
+endforeach()
+# App classes are not part of the package.
+if(EXISTS "${prefix}/include/pslam/eval/EvalApp.h")
+  message(FATAL_ERROR "an app class header was installed: include/pslam/eval/EvalApp.h")
+endif()
+
+# 2. Configure and build the consumer against the installed package only (the source tree is not searched).
+set(cfg -S "${SOURCE_DIR}/tests/external_consumer" -B "${build}" -DCMAKE_BUILD_TYPE=Release
+        "-DCMAKE_PREFIX_PATH=${prefix}" "-DCONSUMER_SOURCE=${CONSUMER_SOURCE}")
+if(GENERATOR)
+  list(APPEND cfg -G "${GENERATOR}")
+endif()
+if(COMPILER_LAUNCHER)
+  list(APPEND cfg "-DCMAKE_CXX_COMPILER_LAUNCHER=${COMPILER_LAUNCHER}")
+endif()
+if(CXX_COMPILER)
+  list(APPEND cfg "-DCMAKE_CXX_COMPILER=${CXX_COMPILER}")
+endif()
+run("configure the consumer" ${CMAKE_COMMAND} ${cfg})
+run("build the consumer" ${CMAKE_COMMAND} --build "${build}")
+set(consumer "${build}/consumer")
+
+# 3. Render a short synthetic sequence with the installed tool.
+run("slam-synth --scenario room --frames ${FRAMES}" "${prefix}/bin/slam-synth" --scenario room --frames ${FRAMES}
+    --out "${data}" --quiet)
+if(NOT EXISTS "${data}/room.rawlog")
+  message(FATAL_ERROR "slam-synth wrote no ${data}/room.rawlog")
+endif()
+
+# 4. Run the consumer with the installed SLAM config.
+set(map "${WORK_DIR}/map.slammap")
+run("consumer on ${FRAMES} frames" "${consumer}" "${prefix}/share/priorslam/config/slam/synthetic.ini"
+    "${data}/room.rawlog" "${map}")
+string(REGEX MATCHALL "(^|\n)[0-9]+ [^\n]*" frame_lines "${RUN_OUTPUT}")
+list(LENGTH frame_lines n)
+if(NOT n EQUAL FRAMES)
+  message(FATAL_ERROR "expected ${FRAMES} frame lines, got ${n}:\n${RUN_OUTPUT}")
+endif()
+if(NOT RUN_OUTPUT MATCHES "(^|\n)summary [^\n]+")
+  message(FATAL_ERROR "no summary line:\n${RUN_OUTPUT}")
+endif()
+string(REGEX MATCH "(^|\n)summary [^\n]+" summary "${RUN_OUTPUT}")
+string(STRIP "${summary}" summary)
+if(NOT EXISTS "${map}")
+  message(FATAL_ERROR "the map file ${map} was not written")
+endif()
+file(SIZE "${map}" map_size)
+message(STATUS "${n} frame lines, map ${map_size} bytes, ${summary}")
+
+if(NOT KEEP)
+  file(REMOVE_RECURSE "${WORK_DIR}")
+endif()
