@@ -110,6 +110,10 @@ void Tracker::setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> polic
   policy_ = policy && !policy->usesEveryGoodPoint() ? std::move(policy) : nullptr;
 }
 
+bool Tracker::measurable(map::MapPointId id) const {
+  return id != map::kNoMapPoint && map_.hasMapPoint(id) && !map_.mapPoint(id).bad;
+}
+
 bool Tracker::usable(map::MapPointId id) const {
   if (id == map::kNoMapPoint || !map_.hasMapPoint(id)) return false;
   const map::MapPoint& p = map_.mapPoint(id);
@@ -142,11 +146,15 @@ void Tracker::reset() {
 int Tracker::optimizeFramePose(Frame& frame) {
   std::vector<optimize::PoseObservation> obs;
   std::vector<std::size_t> keypointOf;
+  std::vector<std::size_t> evidence;  ///< matches of points the policy does not let us use (§3.4.2: measured only)
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId id = frame.mapPointIds[i];
     if (id == map::kNoMapPoint) continue;
     if (!usable(id)) {
-      frame.mapPointIds[i] = map::kNoMapPoint;
+      if (measurable(id))
+        evidence.push_back(i);
+      else
+        frame.mapPointIds[i] = map::kNoMapPoint;
       continue;
     }
     optimize::PoseObservation o;
@@ -156,7 +164,10 @@ int Tracker::optimizeFramePose(Frame& frame) {
     obs.push_back(o);
     keypointOf.push_back(i);
   }
-  if (obs.size() < 3) return 0;
+  if (obs.size() < 3) {
+    for (std::size_t i : evidence) frame.mapPointIds[i] = map::kNoMapPoint;
+    return 0;
+  }
   std::optional<ScopedStage> stage;
   if (timings_) stage.emplace(*timings_, "pose_optimization");
   PoseSolveRequest request;
@@ -179,6 +190,20 @@ int Tracker::optimizeFramePose(Frame& frame) {
       ++inliers;
     }
   }
+  // Inactive points take no part in the estimate, but a match that agrees with it is a measurement of the
+  // point (§3.4.2: "we use each measurement to update our probabilistic measurement model"): it stays matched
+  // (and reaches the point's model through the keyframe observations) when its reprojection error at the
+  // estimated pose passes the same chi-square test (Table 3.2, chi_R = 5.991); otherwise it is dropped.
+  for (std::size_t i : evidence) {
+    optimize::PoseObservation o;
+    o.p_world = map_.worldPosition(frame.mapPointIds[i]);
+    o.pixel = frame.pixel(i);
+    o.invSigma2 = 1.0 / frame.levelSigma2[frame.keypoints[i].octave];
+    Eigen::Vector2d residual;
+    const bool inFront = optimize::poseOnlyResidual(frame.T_cam_world, frame.camera, o, residual, nullptr);
+    if (!inFront || !(residual.squaredNorm() <= kEvidenceChi2)) frame.mapPointIds[i] = map::kNoMapPoint;
+    frame.outlier[i] = false;
+  }
   return inliers;
 }
 
@@ -188,7 +213,7 @@ bool Tracker::trackWithMotionModel(Frame& frame) {
   std::vector<ProjectionCandidate> cands;
   for (std::size_t i = 0; i < last_.size(); ++i) {
     const map::MapPointId id = last_.mapPointIds[i];
-    if (last_.outlier[i] || !usable(id)) continue;
+    if (last_.outlier[i] || !measurable(id)) continue;
     const map::MapPoint& p = map_.mapPoint(id);
     ProjectionCandidate c;
     c.id = id;
@@ -223,7 +248,7 @@ bool Tracker::trackReferenceKeyFrame(Frame& frame) {
   // bag-of-words SearchByBoW: same TH_LOW and ratio, exhaustive instead of vocabulary-node restricted).
   std::vector<int> rows;
   for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
-    if (usable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
+    if (measurable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
   if (static_cast<int>(rows.size()) < params_.minReferenceMatches) return false;
   cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
   for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
@@ -288,7 +313,7 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
                                                                             : params_.localMapRadius;
   std::vector<ProjectionCandidate> cands;
   for (map::MapPointId id : localPoints) {
-    if (!usable(id)) continue;
+    if (!measurable(id)) continue;
     const map::MapPoint& p = map_.mapPoint(id);
     // ORB-SLAM Frame::isInFrustum: in front, inside the image, within the scale-invariance distances, and
     // seen at less than 60 degrees from its mean viewing direction.
@@ -410,7 +435,7 @@ map::KeyFrameId Tracker::createKeyFrame(const Frame& frame) {
   std::vector<map::MapPointId> touched;
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId p = frame.mapPointIds[i];
-    if (frame.outlier[i] || !usable(p)) continue;
+    if (frame.outlier[i] || !measurable(p)) continue;
     if (map_.addObservation(p, id, i)) touched.push_back(p);
   }
   for (map::MapPointId p : touched) {

@@ -103,8 +103,14 @@ class Tracker {
   const Frame& lastFrame() const { return last_; }
   const PoseSolver& poseSolver() const { return *solver_; }
   const MapInitializer& mapInitializer() const { return *initializer_; }
-  /// May tracking use map point `id` (exists, not bad, allowed by the point-use policy)?
+  /// May tracking use map point `id` for the pose (exists, not bad, allowed by the point-use policy)?
   bool usable(map::MapPointId id) const;
+  /// May tracking search and measure it (exists, not bad)? Matches of measurable points that are not usable
+  /// never enter pose optimization; they stay matched when they agree with the estimated pose, so keyframes
+  /// observe them and their model is updated (§3.4.2).
+  bool measurable(map::MapPointId id) const;
+  /// chi_R of Table 3.2: a measured-only match is kept when its whitened squared reprojection error is below.
+  static constexpr double kEvidenceChi2 = 5.991;
 
   // Building blocks (public for tests)
   /// Pose optimization of `frame` against its matches; outliers are unmatched afterwards. Returns inliers.
