@@ -9,15 +9,16 @@
 #include "pslam/core/Error.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/datasets/Rawlog.h"
-#include "pslam/system/SlamRunApp.h"
-#include "pslam/system/SlamSystem.h"
+#include "pslam/system/System.h"
 
 int main(int argc, char** argv) {
   CLI::App cli{"Benchmark of slam-run's sequential pipeline: per-stage and per-frame timings"};
   std::string config, rawlog;
+  std::vector<std::string> overrides;
   long long first = 0, last = -1;
   unsigned seed = 0;
   cli.add_option("--config", config, "MRPT ini (config/slam/*.ini)")->required();
+  cli.add_option("--set", overrides, "override one ini value, Section.key=value (repeatable)");
   cli.add_option("--rawlog", rawlog, "input rawlog")->required();
   cli.add_option("--first", first, "first frame")->check(CLI::NonNegativeNumber);
   cli.add_option("--last", last, "last frame (inclusive)");
@@ -25,25 +26,30 @@ int main(int argc, char** argv) {
   CLI11_PARSE(cli, argc, argv);
   try {
     using namespace pslam;
-    const system::SlamParams params = system::loadSlamParams(config);
+    system::SystemOptions options;
+    options.seed = seed;
+    options.threaded = false;  // per-frame CPU time includes the frame's local mapping
+    system::System slam(system::loadSlamParams(config, overrides), options);
     datasets::RawlogReader reader(rawlog);
-    std::unique_ptr<system::SlamSystem> slam;
     StageTimings perFrame;
     datasets::Frame f;
     std::size_t n = 0;
     while (reader.next(f)) {
       if (static_cast<long long>(f.index) < first) continue;
       if (last >= 0 && static_cast<long long>(f.index) > last) break;
-      if (!slam) slam = std::make_unique<system::SlamSystem>(params, geometry::PinholeCamera::fromTCamera(f.camera), seed, false);
       const double cpu0 = system::processCpuSeconds();
       const auto t0 = std::chrono::steady_clock::now();
-      slam->processFrame(f);
+      try {
+        slam.track(f);
+      } catch (const Error& e) {
+        throw Error(rawlog + ": " + e.what());
+      }
       perFrame.add("frame_wall", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       perFrame.add("frame_cpu", (system::processCpuSeconds() - cpu0) * 1e3);
       ++n;
     }
-    if (!slam) throw Error(rawlog + ": no frame in range");
-    StageTimings all = slam->timings();
+    if (n == 0) throw Error(rawlog + ": no frame in range");
+    StageTimings all = slam.timings();
     for (const auto& [stage, v] : perFrame.samples())
       for (double x : v) all.add(stage, x);
     // Tracking time per frame = everything except local mapping (which ORB-SLAM runs in another thread).

@@ -1,17 +1,19 @@
-// slam-run: monocular ORB-SLAM* on a rawlog (thin CLI around pslam::system::SlamRunApp).
+// slam-run: monocular SLAM on a rawlog (thin CLI around pslam::apps::SlamRunApp, which drives the System façade).
 #include <iostream>
 
 #include <CLI/CLI.hpp>
 
-#include "pslam/system/SlamRunApp.h"
+#include "pslam/apps/SlamRunApp.h"
 
 int main(int argc, char** argv) {
-  CLI::App cli{"Monocular SLAM (ORB-SLAM*) on a rawlog: trajectory.txt, keyframes.txt, map.slammap, report.json"};
-  pslam::system::SlamRunOptions o;
+  CLI::App cli{"Monocular SLAM on a rawlog: trajectory.txt, keyframes.txt, map.slammap, report.json"};
+  pslam::apps::SlamRunOptions o;
   std::string config, rawlog, out;
   long long first = 0;
   bool quiet = false;
   cli.add_option("--config", config, "MRPT ini file (config/slam/*.ini)")->required();
+  cli.add_option("--set", o.overrides,
+                 "override one ini value, Section.key=value (repeatable), e.g. --set PointModel.model=probabilistic");
   cli.add_option("--rawlog", rawlog, "input rawlog (DESIGN.md §3)")->required();
   cli.add_option("--out", out, "output folder")->required();
   cli.add_option("--seed", o.seed, "seed of all random processes (default 0)");
@@ -26,7 +28,7 @@ int main(int argc, char** argv) {
     o.outDir = out;
     o.first = static_cast<std::size_t>(first);
     o.progress = !quiet;
-    pslam::system::SlamRunApp app(o);
+    pslam::apps::SlamRunApp app(o);
     const auto s = app.run();
     if (!s.initialized())
       std::cerr << "slam-run: warning: initialization never succeeded; wrote an empty trajectory\n";

@@ -74,15 +74,18 @@ std::vector<Match> filterByRotation(const std::vector<Match>& matches, const std
 }  // namespace
 
 struct LocalMapper::Impl {
-  landmarks::KeypointModel keypointModel;
-  std::unique_ptr<landmarks::MapPointPolicy> policy;
+  /// The map-point model of params.pointPolicy (keypoint-model updates read its KeypointModel).
+  std::shared_ptr<const MapPointModelPolicy> modelPolicy;
+  /// What culling and the BA window ask: modelPolicy unless the caller supplied its own.
+  std::shared_ptr<const map::PointUsePolicy> usePolicy;
 };
 
-LocalMapper::LocalMapper(map::Map& map, const LocalMappingParams& params)
+LocalMapper::LocalMapper(map::Map& map, const LocalMappingParams& params,
+                         std::shared_ptr<const map::PointUsePolicy> pointUsePolicy)
     : map_(map), params_(params), impl_(std::make_unique<Impl>()) {
   params_.check();
-  impl_->keypointModel = landmarks::KeypointModel(params_.keypointModel);
-  impl_->policy = landmarks::makeMapPointPolicy(params_.pointPolicy, impl_->keypointModel);
+  impl_->modelPolicy = std::make_shared<MapPointModelPolicy>(params_.pointPolicy, params_.keypointModel);
+  impl_->usePolicy = pointUsePolicy ? std::move(pointUsePolicy) : impl_->modelPolicy;
 }
 
 LocalMapper::~LocalMapper() = default;
@@ -98,28 +101,11 @@ double initialVariance(const landmarks::KeypointModelParams& p) {
   return range * range / 36.0;
 }
 
-/// What the policy sees of a map point: its counters and its keypoint-model state (a point without state
-/// has seen no evidence yet: the model's initial state at its current depth).
-landmarks::MapPointRecord recordOf(const MapPoint& p, const landmarks::KeypointModel& model) {
-  landmarks::MapPointRecord r;
-  r.model = p.landmarkState.empty()
-                ? model.initialize(p.inverseDepthAlongZ(), initialVariance(model.params()))
-                : decodeKeypointState(p.landmarkState, "map point " + std::to_string(p.id));
-  r.counters.visible = static_cast<std::uint32_t>(std::max(0, p.visibleCount));
-  r.counters.found = static_cast<std::uint32_t>(std::max(0, p.foundCount));
-  r.counters.observations = static_cast<std::uint32_t>(p.numObservations());
-  r.counters.firstKeyframeId = static_cast<std::int64_t>(p.firstKeyFrame);
-  r.counters.bad = p.bad;
-  return r;
-}
 }  // namespace
 
-bool LocalMapper::isActive(MapPointId point) const {
-  const MapPoint& p = map_.mapPoint(point);
-  if (p.bad) return false;
-  if (model() == landmarks::MapPointModel::Heuristic) return true;
-  return impl_->policy->isActive(recordOf(p, impl_->keypointModel));
-}
+bool LocalMapper::isActive(MapPointId point) const { return impl_->usePolicy->mayUse(map_.mapPoint(point)); }
+
+std::shared_ptr<const map::PointUsePolicy> LocalMapper::pointUsePolicy() const { return impl_->usePolicy; }
 
 // ------------------------------------------------------------------------------------ probabilistic hook
 
@@ -185,7 +171,7 @@ void LocalMapper::processNewKeyFrame(KeyFrameId kfId, const std::vector<MapPoint
     if (map_.mapPoint(id).bad) continue;
     // The model update first: alpha compares the keypoint with the descriptor the tracker matched against.
     if (model() != landmarks::MapPointModel::Heuristic &&
-        updateLandmarkState(map_, impl_->keypointModel, params_, id, kfId))
+        updateLandmarkState(map_, impl_->modelPolicy->keypointModel(), params_, id, kfId))
       ++landmarkUpdates_;
     map_.updateNormalAndDepth(id);
     map_.computeDistinctiveDescriptor(id);
@@ -207,15 +193,14 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
   for (MapPointId id : recent_) {
     if (!map_.hasMapPoint(id)) continue;  // fused or erased meanwhile
     const MapPoint& p = map_.mapPoint(id);
-    const landmarks::MapPointRecord record = recordOf(p, impl_->keypointModel);
-    const bool cull = p.bad || impl_->policy->shouldCull(record, current);
+    const bool cull = impl_->usePolicy->shouldCull(p, kfId);
     if (cull) {
       map_.eraseMapPoint(id);
       ++culled;
       continue;
     }
     // ORB-SLAM: a point that survived three keyframes leaves probation.
-    if (current - record.counters.firstKeyframeId >= params_.pointPolicy.observationWindow + 1) continue;
+    if (current - static_cast<std::int64_t>(p.firstKeyFrame) >= params_.pointPolicy.observationWindow + 1) continue;
     stillRecent.push_back(id);
   }
   recent_ = std::move(stillRecent);
@@ -225,7 +210,7 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
     for (MapPointId id : map_.pointsOf(kfId)) {
       if (!map_.hasMapPoint(id)) continue;
       const MapPoint& p = map_.mapPoint(id);
-      if (p.bad || impl_->policy->shouldCull(recordOf(p, impl_->keypointModel), current)) {
+      if (impl_->usePolicy->shouldCull(p, kfId)) {
         map_.eraseMapPoint(id);
         ++culled;
       }
@@ -379,17 +364,17 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
                                    : landmarks::DepthUncertainty{};
         const double variance = tau.valid && tau.tau2InverseDepth() > 0.0 ? tau.tau2InverseDepth()
                                                                           : initialVariance(params_.keypointModel);
-        landmarks::KeypointState state = impl_->keypointModel.initialize(p.inverseDepthAlongZ(), variance);
+        landmarks::KeypointState state = impl_->modelPolicy->keypointModel().initialize(p.inverseDepthAlongZ(), variance);
         if (!kf1.semanticProbabilities.empty()) {
           const auto& c1 = kf1.semanticProbabilities.at(m.i1);
-          impl_->keypointModel.addSemanticObservation(state, {c1[0], c1[1], c1[2]}, 1.0);
+          impl_->modelPolicy->keypointModel().addSemanticObservation(state, {c1[0], c1[1], c1[2]}, 1.0);
         }
         if (!kf2.semanticProbabilities.empty()) {
           const auto& c2 = kf2.semanticProbabilities.at(m.i2);
           const double alpha = landmarks::matchingAccuracyFromDescriptors(
               kf1.descriptors.row(static_cast<int>(m.i1)), kf2.descriptors.row(static_cast<int>(m.i2)),
               params_.matchingAccuracy.hammingMaxDistance);
-          impl_->keypointModel.addSemanticObservation(state, {c2[0], c2[1], c2[2]}, alpha);
+          impl_->modelPolicy->keypointModel().addSemanticObservation(state, {c2[0], c2[1], c2[2]}, alpha);
         }
         p.landmarkState = encodeKeypointState(state);
       }
@@ -498,16 +483,12 @@ int LocalMapper::searchInNeighbors(KeyFrameId kfId) {
 // ------------------------------------------------------------------------------------ 5. LocalBundleAdjustment
 
 optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId, optimize::BAResult* resultOut) {
-  optimize::BAProblem problem = optimize::makeLocalProblem(map_, kfId, params_.ba);
-  // Inactive points (masking / probabilistic model) take no part in the optimization.
-  if (model() != landmarks::MapPointModel::Heuristic) {
-    for (auto it = problem.points.begin(); it != problem.points.end();)
-      it = isActive(it->first) ? std::next(it) : problem.points.erase(it);
-    std::vector<optimize::BAObservation> kept;
-    for (const auto& o : problem.observations)
-      if (problem.points.count(o.point)) kept.push_back(o);
-    problem.observations = std::move(kept);
-  }
+  // Only points the policy lets us use take part (§3.4.3), and the window's fixed keyframes are those that
+  // observe these points: the window is built from the active points, not filtered after it was built.
+  const std::shared_ptr<const map::PointUsePolicy>& policy = impl_->usePolicy;
+  optimize::PointFilter usePoint;
+  if (!policy->usesEveryGoodPoint()) usePoint = [&policy](const MapPoint& p) { return policy->mayUse(p); };
+  optimize::BAProblem problem = optimize::makeLocalProblem(map_, kfId, params_.ba, usePoint);
   bool anyFree = false;
   for (const auto& [id, k] : problem.keyframes) anyFree = anyFree || !k.fixed;
   if (problem.observations.empty() || !anyFree) return {};

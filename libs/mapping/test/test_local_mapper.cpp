@@ -543,3 +543,72 @@ TEST(LocalMapper, UnknownKeyFrameIsAnError) {
 
 }  // namespace
 }  // namespace pslam::mapping
+
+namespace pslam::mapping {
+namespace {
+using map::KeyFrameId;
+using map::MapPoint;
+using map::MapPointId;
+using namespace pslam::mapping::testing;
+
+LocalMappingParams defaultParams() {
+  LocalMappingParams p;
+  p.ba.numThreads = 1;
+  return p;
+}
+
+/// A policy that refuses every point with an odd id (and counts how often it was asked).
+class OddIdsRefused : public map::PointUsePolicy {
+ public:
+  std::string name() const override { return "odd-ids-refused"; }
+  bool mayUse(const MapPoint& p) const override {
+    ++asked;
+    return !p.bad && p.id % 2 == 0;
+  }
+  bool shouldCull(const MapPoint& p, KeyFrameId) const override { return p.bad; }
+  mutable int asked = 0;
+};
+
+TEST(LocalMapper, BundleAdjustmentNeverUsesAPointThePolicyRefuses) {
+  std::mt19937 rng(21);
+  Scene s = makeScene(150, 16);
+  map::Map map;
+  for (int slot = 0; slot < 6; ++slot) addKeyFrame(map, s, slot, rng);
+  const auto ids = addTruePoints(map, s, 0, 150, 0, {0, 1, 2, 3, 4, 5});
+  std::normal_distribution<double> n(0.0, 0.05);
+  for (MapPointId id : ids) map.setInverseDepth(id, map.mapPoint(id).inverseDepth * (1.0 + n(rng)));
+  std::map<MapPointId, double> before;
+  for (MapPointId id : ids) before[id] = map.mapPoint(id).inverseDepth;
+  LocalMappingParams params = defaultParams();
+  params.ba.maxLocalKeyFrames = 3;
+  auto policy = std::make_shared<OddIdsRefused>();
+  LocalMapper mapper(map, params, policy);
+  EXPECT_EQ(mapper.pointUsePolicy(), policy);
+  mapper.runLocalBundleAdjustment(s.keyframes[5]);
+  EXPECT_GT(policy->asked, 0);
+  int movedEven = 0;
+  for (MapPointId id : ids) {
+    ASSERT_TRUE(map.hasMapPoint(id));
+    if (id % 2 == 1)
+      EXPECT_EQ(map.mapPoint(id).inverseDepth, before[id]) << "refused point " << id << " was optimized";
+    else
+      movedEven += map.mapPoint(id).inverseDepth != before[id] ? 1 : 0;
+  }
+  EXPECT_GT(movedEven, 30);
+  EXPECT_FALSE(mapper.isActive(ids[0] % 2 == 1 ? ids[0] : ids[1]));
+}
+
+TEST(LocalMapper, DefaultPolicyIsTheMapPointModel) {
+  map::Map map;
+  LocalMappingParams params = defaultParams();
+  LocalMapper heuristic(map, params);
+  EXPECT_EQ(heuristic.pointUsePolicy()->name(), "heuristic");
+  EXPECT_TRUE(heuristic.pointUsePolicy()->usesEveryGoodPoint());
+  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
+  LocalMapper probabilistic(map, params);
+  EXPECT_EQ(probabilistic.pointUsePolicy()->name(), "probabilistic");
+  EXPECT_FALSE(probabilistic.pointUsePolicy()->usesEveryGoodPoint());
+}
+
+}  // namespace
+}  // namespace pslam::mapping

@@ -1,7 +1,7 @@
 #include "pslam/optimize/BundleAdjustment.h"
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <memory>
 
@@ -41,6 +41,23 @@ void validate(const BAProblem& problem) {
     require(o.pixel.allFinite() && std::isfinite(o.invSigma2) && o.invSigma2 > 0.0, ctx,
             obs + " has a NaN/Inf pixel or a non-positive weight");
   }
+  for (std::size_t i = 0; i < problem.factors.size(); ++i) {
+    const std::string f = "factor " + std::to_string(i);
+    require(problem.factors[i] != nullptr, ctx, f + " is null");
+    require(!problem.factors[i]->keyframes().empty(), ctx, f + " involves no keyframe");
+    for (KeyFrameId kf : problem.factors[i]->keyframes())
+      require(problem.keyframes.count(kf) != 0, ctx, f + " refers to unknown keyframe " + std::to_string(kf));
+    for (const double* block : problem.factors[i]->landmarkBlocks())
+      require(block != nullptr, ctx, f + " has a null landmark block");
+  }
+}
+
+/// Parameter blocks of a factor at the current state: its keyframes' poses, then its landmark blocks.
+std::vector<double*> factorBlocks(const BAFactor& f, const std::map<KeyFrameId, double*>& poses) {
+  std::vector<double*> blocks;
+  for (KeyFrameId kf : f.keyframes()) blocks.push_back(poses.at(kf));
+  for (double* b : f.landmarkBlocks()) blocks.push_back(b);
+  return blocks;
 }
 
 // Mutable copy of the problem's values, in the layout Ceres optimizes. The blocks live in contiguous
@@ -108,12 +125,14 @@ double rmsPixels(const BAProblem& problem, const State& state, const std::vector
 
 // One Levenberg-Marquardt pass over the observations not excluded. Returns the Ceres summary.
 ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const std::vector<bool>& excluded,
+                                 const std::vector<bool>& factorExcluded,
                                  const std::map<KeyFrameId, bool>& keyframeFixed, bool robust, int iterations,
                                  const BundleAdjustmentParams& params, int& residualBlocks) {
   ceres::HuberLoss huber(params.huberDelta);
   ceres::Problem::Options problemOptions;
   problemOptions.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem ceresProblem(problemOptions);
+  std::vector<double*> factorLandmarks;  ///< distinct landmark blocks of the factors, in first-use order
   residualBlocks = 0;
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     if (excluded[i]) continue;
@@ -123,6 +142,26 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
     ceresProblem.AddResidualBlock(
         new InverseDepthReprojectionCost(p.bearing, o.pixel, o.invSigma2, problem.keyframes.at(o.keyframe).camera),
         robust ? &huber : nullptr, state.poses.at(p.anchor), state.poses.at(o.keyframe), state.rhos.at(o.point));
+    ++residualBlocks;
+  }
+  std::vector<std::unique_ptr<ceres::HuberLoss>> factorLosses;
+  for (std::size_t i = 0; i < problem.factors.size(); ++i) {
+    if (factorExcluded[i]) continue;
+    const BAFactor& f = *problem.factors[i];
+    ceres::LossFunction* loss = nullptr;
+    if (robust && f.huberDelta() > 0.0) {
+      factorLosses.push_back(std::make_unique<ceres::HuberLoss>(f.huberDelta()));
+      loss = factorLosses.back().get();
+    }
+    const std::vector<double*> blocks = factorBlocks(f, state.poses);
+    ceresProblem.AddResidualBlock(f.newCostFunction(), loss, blocks);
+    const std::vector<double*> landmark = f.landmarkBlocks();
+    for (std::size_t b = 0; b < landmark.size(); ++b) {
+      if (std::find(factorLandmarks.begin(), factorLandmarks.end(), landmark[b]) != factorLandmarks.end()) continue;
+      factorLandmarks.push_back(landmark[b]);
+      if (ceres::Manifold* m = f.newLandmarkManifold(b)) ceresProblem.SetManifold(landmark[b], m);
+      if (f.landmarkFixed()) ceresProblem.SetParameterBlockConstant(landmark[b]);
+    }
     ++residualBlocks;
   }
   ceres::Solver::Summary summary;
@@ -141,6 +180,7 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
     if (problem.points.at(id).fixed) ceresProblem.SetParameterBlockConstant(rho);
     ordering->AddElementToGroup(rho, 0);
   }
+  for (double* block : factorLandmarks) ordering->AddElementToGroup(block, 0);
 
   ceres::Solver::Options options;
   options.linear_solver_type = params.linearSolver == "dense_schur" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
@@ -162,8 +202,10 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
   BAResult result;
 
   std::vector<bool> excluded(problem.observations.size(), false);
+  std::vector<bool> factorExcluded(problem.factors.size(), false);
   int blocks = 0;
-  const ceres::Solver::Summary first = solvePass(problem, state, excluded, fixed, true, firstIterations, params, blocks);
+  const ceres::Solver::Summary first =
+      solvePass(problem, state, excluded, factorExcluded, fixed, true, firstIterations, params, blocks);
   result.residualBlocks = blocks;
   result.initialCost = first.initial_cost;
   result.finalCost = first.final_cost;
@@ -179,10 +221,21 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
     const ObservationCheck c = evaluate(problem, state, problem.observations[i]);
     return !(c.whitened.squaredNorm() <= params.chi2Threshold) || !c.inFront;
   };
+  auto isFactorOutlier = [&](std::size_t i) {
+    const BAFactor& f = *problem.factors[i];
+    std::unique_ptr<ceres::CostFunction> cost(f.newCostFunction());
+    std::vector<double> r(static_cast<std::size_t>(cost->num_residuals()));
+    const std::vector<double*> blocks = factorBlocks(f, state.poses);
+    if (!cost->Evaluate(blocks.data(), r.data(), nullptr)) return true;
+    double chi2 = 0.0;
+    for (double v : r) chi2 += v * v;
+    return !(chi2 <= f.chi2Threshold());
+  };
   if (secondIterations > 0) {
     for (std::size_t i = 0; i < excluded.size(); ++i) excluded[i] = isOutlier(i);
+    for (std::size_t i = 0; i < factorExcluded.size(); ++i) factorExcluded[i] = isFactorOutlier(i);
     const ceres::Solver::Summary second =
-        solvePass(problem, state, excluded, fixed, false, secondIterations, params, blocks);
+        solvePass(problem, state, excluded, factorExcluded, fixed, false, secondIterations, params, blocks);
     if (blocks > 0) {
       result.finalCost = second.final_cost;
       result.iterations += static_cast<int>(second.iterations.size());
@@ -191,6 +244,8 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
   }
   for (std::size_t i = 0; i < problem.observations.size(); ++i)
     if (isOutlier(i)) result.outliers.push_back(i);
+  for (std::size_t i = 0; i < problem.factors.size(); ++i)
+    if (isFactorOutlier(i)) result.factorOutliers.push_back(i);
 
   // Report every free block that took part in the optimization.
   std::map<KeyFrameId, bool> used;
@@ -201,6 +256,8 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
     used[o.keyframe] = used[p.anchor] = true;
     usedPoint[o.point] = true;
   }
+  for (const auto& f : problem.factors)
+    for (KeyFrameId kf : f->keyframes()) used[kf] = true;
   for (const auto& [id, u] : used)
     if (!fixed.at(id)) result.poses[id] = fromPoseParameters(state.poses.at(id));
   for (const auto& [id, u] : usedPoint)

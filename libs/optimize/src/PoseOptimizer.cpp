@@ -52,25 +52,41 @@ struct Linearization {
   Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
-Linearization linearize(const Eigen::Isometry3d& T, const map::CameraIntrinsics& camera,
-                        const std::vector<PoseObservation>& obs, const std::vector<bool>& excluded, double huberDelta) {
-  Linearization L;
+using Factors = std::vector<std::shared_ptr<const PoseFactor>>;
+
+/// Adds one whitened residual block r (Jacobian J) to L with the Huber weight of `huberDelta`.
+template <class Residual, class Jacobian>
+void accumulate(Linearization& L, const Residual& r, const Jacobian& J, double huberDelta) {
   const double d2 = huberDelta * huberDelta;
+  const double s = r.squaredNorm();
+  double w = 1.0, rho = s;
+  if (huberDelta > 0.0 && s > d2) {
+    const double e = std::sqrt(s);
+    rho = 2.0 * huberDelta * e - d2;
+    w = huberDelta / e;
+  }
+  L.cost += 0.5 * rho;
+  L.H.noalias() += w * J.transpose() * J;
+  L.g.noalias() += w * J.transpose() * r;
+}
+
+Linearization linearize(const Eigen::Isometry3d& T, const map::CameraIntrinsics& camera,
+                        const std::vector<PoseObservation>& obs, const std::vector<bool>& excluded, double huberDelta,
+                        const Factors& factors, const std::vector<bool>& factorExcluded, bool robust) {
+  Linearization L;
   Eigen::Vector2d r;
   Eigen::Matrix<double, 2, 6> J;
   for (std::size_t i = 0; i < obs.size(); ++i) {
     if (excluded[i]) continue;
     poseOnlyResidual(T, camera, obs[i], r, &J);
-    const double s = r.squaredNorm();
-    double w = 1.0, rho = s;
-    if (huberDelta > 0.0 && s > d2) {
-      const double e = std::sqrt(s);
-      rho = 2.0 * huberDelta * e - d2;
-      w = huberDelta / e;
-    }
-    L.cost += 0.5 * rho;
-    L.H.noalias() += w * J.transpose() * J;
-    L.g.noalias() += w * J.transpose() * r;
+    accumulate(L, r, J, huberDelta);
+  }
+  Eigen::VectorXd rf;
+  Eigen::MatrixXd Jf;
+  for (std::size_t i = 0; i < factors.size(); ++i) {
+    if (factorExcluded[i]) continue;
+    if (!factors[i]->evaluate(T, rf, &Jf)) continue;
+    accumulate(L, rf, Jf, robust ? factors[i]->huberDelta() : 0.0);
   }
   return L;
 }
@@ -85,9 +101,22 @@ double chi2At(const Eigen::Isometry3d& T, const map::CameraIntrinsics& cam, cons
 /// problem per round cost ~3 ms per call at 1000 correspondences, mostly per-problem set-up; this loop ~0.3 ms.
 Eigen::Isometry3d levenbergMarquardt(const Eigen::Isometry3d& start, const map::CameraIntrinsics& camera,
                                      const std::vector<PoseObservation>& obs, const std::vector<bool>& excluded,
-                                     double huberDelta, int maxIterations) {
+                                     double huberDelta, int maxIterations, const Factors& factors,
+                                     const std::vector<bool>& factorExcluded, PoseFreedom freedom) {
+  const bool robust = huberDelta > 0.0;
+  auto lin = [&](const Eigen::Isometry3d& T) {
+    Linearization L = linearize(T, camera, obs, excluded, huberDelta, factors, factorExcluded, robust);
+    if (freedom == PoseFreedom::TranslationOnly) {
+      // Rotation held: its rows/columns leave the system, so the rotation part of every step is zero.
+      L.H.topRows<3>().setZero();
+      L.H.leftCols<3>().setZero();
+      L.H.topLeftCorner<3, 3>().setIdentity();
+      L.g.head<3>().setZero();
+    }
+    return L;
+  };
   Eigen::Isometry3d T = start;
-  Linearization L = linearize(T, camera, obs, excluded, huberDelta);
+  Linearization L = lin(T);
   double lambda = 1e-4;
   for (int it = 0; it < maxIterations; ++it) {
     Eigen::Matrix<double, 6, 6> A = L.H;
@@ -95,7 +124,7 @@ Eigen::Isometry3d levenbergMarquardt(const Eigen::Isometry3d& start, const map::
     const Eigen::Matrix<double, 6, 1> xi = A.ldlt().solve(-L.g);
     if (!xi.allFinite()) break;
     const Eigen::Isometry3d Tn = retractPoseLeft(xi, T);
-    Linearization Ln = linearize(Tn, camera, obs, excluded, huberDelta);
+    Linearization Ln = lin(Tn);
     if (Ln.cost < L.cost) {
       const double decrease = L.cost - Ln.cost;
       T = Tn;
@@ -112,11 +141,20 @@ Eigen::Isometry3d levenbergMarquardt(const Eigen::Isometry3d& start, const map::
   return T;
 }
 
+/// Squared whitened residual of a factor at T; false when it is not valid there.
+bool factorChi2(const Eigen::Isometry3d& T, const PoseFactor& f, double& chi2) {
+  Eigen::VectorXd r;
+  const bool ok = f.evaluate(T, r, nullptr);
+  chi2 = r.squaredNorm();
+  return ok;
+}
+
 }  // namespace
 
 PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial, const map::CameraIntrinsics& camera,
                                     const std::vector<PoseObservation>& observations,
-                                    const PoseOptimizationParams& params, const std::vector<bool>& initialOutliers) {
+                                    const PoseOptimizationParams& params, const std::vector<bool>& initialOutliers,
+                                    const Factors& factors, PoseFreedom freedom) {
   params.check();
   camera.check("optimizePose: camera");
   require(T_cam_world_initial.matrix().allFinite(), "optimizePose", "initial pose has NaN/Inf entries");
@@ -128,10 +166,15 @@ PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial
             "optimizePose", "observation " + std::to_string(i) + " has a NaN/Inf value or non-positive weight");
   }
 
+  for (std::size_t i = 0; i < factors.size(); ++i)
+    require(factors[i] != nullptr && factors[i]->dimension() > 0, "optimizePose",
+            "factor " + std::to_string(i) + " is null or has no residual");
+
   PoseOptimizationResult result;
   result.T_cam_world = T_cam_world_initial;
+  result.factorOutlier.assign(factors.size(), false);
   result.outlier = initialOutliers.empty() ? std::vector<bool>(observations.size(), false) : initialOutliers;
-  if (static_cast<int>(observations.size()) < params.minCorrespondences) {
+  if (static_cast<int>(observations.size() + factors.size()) < params.minCorrespondences) {
     result.inliers = 0;
     return result;
   }
@@ -140,10 +183,12 @@ PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial
   for (int round = 0; round < params.rounds; ++round) {
     int used = 0;
     for (bool out : result.outlier) used += out ? 0 : 1;
+    for (bool out : result.factorOutlier) used += out ? 0 : 1;
     if (used < params.minCorrespondences) break;
     // ORB-SLAM restarts every round from the initial estimate, only the inlier set changes.
     solved = levenbergMarquardt(T_cam_world_initial, camera, observations, result.outlier,
-                                round < params.robustRounds ? params.huberDelta : 0.0, params.iterationsPerRound);
+                                round < params.robustRounds ? params.huberDelta : 0.0, params.iterationsPerRound,
+                                factors, result.factorOutlier, freedom);
     result.roundsRun = round + 1;
 
     int inliers = 0;
@@ -152,6 +197,12 @@ PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial
       const double chi2 = chi2At(solved, camera, observations[i], inFront);
       result.outlier[i] = !(chi2 <= params.chi2Threshold) || !inFront;
       inliers += result.outlier[i] ? 0 : 1;
+    }
+    for (std::size_t i = 0; i < factors.size(); ++i) {
+      double chi2 = 0.0;
+      const bool valid = factorChi2(solved, *factors[i], chi2);
+      result.factorOutlier[i] = !(chi2 <= factors[i]->chi2Threshold()) || !valid;
+      inliers += result.factorOutlier[i] ? 0 : 1;
     }
     if (inliers < params.minInliersToContinue) break;
   }
@@ -165,6 +216,14 @@ PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial
     const double chi2 = chi2At(solved, camera, observations[i], inFront);
     result.outlier[i] = !(chi2 <= params.chi2Threshold) || !inFront;
     if (result.outlier[i]) continue;
+    ++result.inliers;
+    result.finalChi2Sum += chi2;
+  }
+  for (std::size_t i = 0; i < factors.size(); ++i) {
+    double chi2 = 0.0;
+    const bool valid = factorChi2(solved, *factors[i], chi2);
+    result.factorOutlier[i] = !(chi2 <= factors[i]->chi2Threshold()) || !valid;
+    if (result.factorOutlier[i]) continue;
     ++result.inliers;
     result.finalChi2Sum += chi2;
   }

@@ -21,6 +21,8 @@ void SlamParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg) {
   mapping.ba = bundleAdjustment;
   threaded = cfg.read_bool("System", "threaded", threaded);
   localMapper = cfg.read_string("System", "localMapper", localMapper);
+  poseSolver = cfg.read_string("System", "poseSolver", poseSolver);
+  mapInitializer = cfg.read_string("System", "mapInitializer", mapInitializer);
   // Keep the text so that components configured outside this struct (libs/mapping) read the same keys.
   if (auto* mem = dynamic_cast<const mrpt::config::CConfigFileMemory*>(&cfg)) mem->getContent(sourceIni);
 }
@@ -34,6 +36,8 @@ void SlamParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg) const {
   mapping.saveToConfigFile(cfg, "LocalMapping");
   cfg.write("System", "threaded", threaded);
   cfg.write("System", "localMapper", localMapper);
+  cfg.write("System", "poseSolver", poseSolver);
+  cfg.write("System", "mapInitializer", mapInitializer);
 }
 
 void SlamParams::check() const {
@@ -66,13 +70,19 @@ std::string SlamParams::toIniText() const {
   return text;
 }
 
-SlamParams loadSlamParams(const std::string& iniPath) {
+SlamParams loadSlamParams(const std::string& iniPath, const std::vector<std::string>& overrides) {
   require(std::filesystem::is_regular_file(iniPath), iniPath, "config file not found");
   std::ifstream in(iniPath);
   std::stringstream text;
   text << in.rdbuf();
   require(static_cast<bool>(in) || in.eof(), iniPath, "cannot read config file");
   mrpt::config::CConfigFileMemory cfg(text.str());
+  for (const std::string& o : overrides) {
+    const auto dot = o.find('.'), eq = o.find('=');
+    require(dot != std::string::npos && eq != std::string::npos && dot > 0 && eq > dot + 1, "--set " + o,
+            "expected Section.key=value");
+    cfg.write(o.substr(0, dot), o.substr(dot + 1, eq - dot - 1), o.substr(eq + 1));
+  }
   SlamParams p;
   try {
     p.loadFromConfigFile(cfg);

@@ -74,6 +74,13 @@ Frame makeFrame(const datasets::Frame& input, const geometry::PinholeCamera& cam
   if (input.hasSemantic())
     require(input.semantic.size() == input.image.size() && input.semantic.type() == CV_8UC3, context,
             "SEMANTIC channel must be CV_8UC3 of the image size");
+  if (input.hasNormals())
+    require(input.normals.size() == input.image.size() && input.normals.type() == CV_8UC3, context,
+            "NORMALS channel must be CV_8UC3 of the image size");
+  if (input.hasDepth())
+    require(input.depth.size() == input.image.size() && input.depth.type() == CV_16UC1 &&
+                std::isfinite(input.depthUnits) && input.depthUnits > 0.0,
+            context, "DEPTH channel must be CV_16UC1 of the image size with positive depth units");
   cv::Mat grey;
   if (input.image.channels() == 1)
     grey = input.image;
@@ -86,8 +93,15 @@ Frame makeFrame(const datasets::Frame& input, const geometry::PinholeCamera& cam
   std::vector<cv::KeyPoint> kps;
   cv::Mat desc;
   extractor.extract(grey, kps, desc, times);
-  return makeFrameFromFeatures(input.index, input.timestamp, camera, kps, desc, extractor.params().nLevels,
-                               extractor.params().scaleFactor, input.semantic);
+  Frame f = makeFrameFromFeatures(input.index, input.timestamp, camera, kps, desc, extractor.params().nLevels,
+                                  extractor.params().scaleFactor, input.semantic);
+  // The other channels travel with the frame (shared, not copied) for the front ends that use them: the grey
+  // image for direct features (§3.3), NORMALS for the Manhattan frame (§4.4), DEPTH for evaluation.
+  f.grey = grey;
+  f.normals = input.normals;
+  f.depth = input.depth;
+  f.depthUnits = input.depthUnits;
+  return f;
 }
 
 }  // namespace pslam::tracking

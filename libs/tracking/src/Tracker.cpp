@@ -93,20 +93,47 @@ nlohmann::json FrameReport::toJson() const {
 
 // ---------------------------------------------------------------- tracker
 Tracker::Tracker(map::Map& map, const geometry::PinholeCamera& camera, TrackerParams params,
-                 InitializerParams initParams, optimize::BundleAdjustmentParams baParams,
-                 std::unique_ptr<PoseSolver> solver, std::uint32_t seed)
+                 std::unique_ptr<MapInitializer> initializer, std::unique_ptr<PoseSolver> solver, std::uint32_t seed)
     : map_(map),
       camera_(camera),
       params_(params),
-      initializer_(camera, initParams, baParams),
+      initializer_(initializer ? std::move(initializer)
+                               : std::make_unique<MonocularInitializer>(camera, InitializerParams{},
+                                                                        optimize::BundleAdjustmentParams{})),
       solver_(solver ? std::move(solver) : std::make_unique<FullPoseSolver>()),
       rng_(seed) {
   params_.check();
 }
 
+void Tracker::setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> policy) {
+  // ORB-SLAM*'s policy (every good point) is the same as none: skip the per-point call.
+  policy_ = policy && !policy->usesEveryGoodPoint() ? std::move(policy) : nullptr;
+}
+
+bool Tracker::measurable(map::MapPointId id) const {
+  return id != map::kNoMapPoint && map_.hasMapPoint(id) && !map_.mapPoint(id).bad;
+}
+
+bool Tracker::usable(map::MapPointId id) const {
+  if (id == map::kNoMapPoint || !map_.hasMapPoint(id)) return false;
+  const map::MapPoint& p = map_.mapPoint(id);
+  return !p.bad && (!policy_ || policy_->mayUse(p));
+}
+
+void Tracker::onMapLoaded() {
+  initializer_->reset();
+  initialized_ = !map_.keyFrames().empty();
+  lost_ = true;
+  haveVelocity_ = false;
+  referenceKeyFrame_ = map::kNoKeyFrame;
+  relocalizedEver_ = false;
+  localKeyFrames_.clear();
+  last_ = Frame();
+}
+
 void Tracker::reset() {
   map_ = map::Map();
-  initializer_.reset();
+  initializer_->reset();
   initialized_ = false;
   lost_ = false;
   haveVelocity_ = false;
@@ -119,11 +146,15 @@ void Tracker::reset() {
 int Tracker::optimizeFramePose(Frame& frame) {
   std::vector<optimize::PoseObservation> obs;
   std::vector<std::size_t> keypointOf;
+  std::vector<std::size_t> evidence;  ///< matches of points the policy does not let us use (§3.4.2: measured only)
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId id = frame.mapPointIds[i];
     if (id == map::kNoMapPoint) continue;
-    if (!map_.hasMapPoint(id) || map_.mapPoint(id).bad) {
-      frame.mapPointIds[i] = map::kNoMapPoint;
+    if (!usable(id)) {
+      if (measurable(id))
+        evidence.push_back(i);
+      else
+        frame.mapPointIds[i] = map::kNoMapPoint;
       continue;
     }
     optimize::PoseObservation o;
@@ -133,14 +164,22 @@ int Tracker::optimizeFramePose(Frame& frame) {
     obs.push_back(o);
     keypointOf.push_back(i);
   }
-  if (obs.size() < 3) return 0;
+  if (obs.size() < 3) {
+    for (std::size_t i : evidence) frame.mapPointIds[i] = map::kNoMapPoint;
+    return 0;
+  }
   std::optional<ScopedStage> stage;
   if (timings_) stage.emplace(*timings_, "pose_optimization");
-  const optimize::PoseOptimizationResult r = solver_->solve(frame.T_cam_world, frame.camera, obs, {});
+  PoseSolveRequest request;
+  request.T_cam_world_initial = frame.T_cam_world;
+  request.camera = frame.camera;
+  request.observations = std::move(obs);
+  request.rotationPrior = frame.rotationPrior;
+  const optimize::PoseOptimizationResult r = solver_->solve(request);
   frame.T_cam_world = r.T_cam_world;
   frame.hasPose = true;
   int inliers = 0;
-  for (std::size_t k = 0; k < obs.size(); ++k) {
+  for (std::size_t k = 0; k < keypointOf.size(); ++k) {
     const std::size_t i = keypointOf[k];
     if (r.outlier[k]) {
       // ORB-SLAM discards outlier matches after pose optimization.
@@ -151,6 +190,20 @@ int Tracker::optimizeFramePose(Frame& frame) {
       ++inliers;
     }
   }
+  // Inactive points take no part in the estimate, but a match that agrees with it is a measurement of the
+  // point (§3.4.2: "we use each measurement to update our probabilistic measurement model"): it stays matched
+  // (and reaches the point's model through the keyframe observations) when its reprojection error at the
+  // estimated pose passes the same chi-square test (Table 3.2, chi_R = 5.991); otherwise it is dropped.
+  for (std::size_t i : evidence) {
+    optimize::PoseObservation o;
+    o.p_world = map_.worldPosition(frame.mapPointIds[i]);
+    o.pixel = frame.pixel(i);
+    o.invSigma2 = 1.0 / frame.levelSigma2[frame.keypoints[i].octave];
+    Eigen::Vector2d residual;
+    const bool inFront = optimize::poseOnlyResidual(frame.T_cam_world, frame.camera, o, residual, nullptr);
+    if (!inFront || !(residual.squaredNorm() <= kEvidenceChi2)) frame.mapPointIds[i] = map::kNoMapPoint;
+    frame.outlier[i] = false;
+  }
   return inliers;
 }
 
@@ -160,7 +213,7 @@ bool Tracker::trackWithMotionModel(Frame& frame) {
   std::vector<ProjectionCandidate> cands;
   for (std::size_t i = 0; i < last_.size(); ++i) {
     const map::MapPointId id = last_.mapPointIds[i];
-    if (id == map::kNoMapPoint || last_.outlier[i] || !map_.hasMapPoint(id) || map_.mapPoint(id).bad) continue;
+    if (last_.outlier[i] || !measurable(id)) continue;
     const map::MapPoint& p = map_.mapPoint(id);
     ProjectionCandidate c;
     c.id = id;
@@ -195,7 +248,7 @@ bool Tracker::trackReferenceKeyFrame(Frame& frame) {
   // bag-of-words SearchByBoW: same TH_LOW and ratio, exhaustive instead of vocabulary-node restricted).
   std::vector<int> rows;
   for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
-    if (kf.mapPointIds[i] != map::kNoMapPoint && !map_.mapPoint(kf.mapPointIds[i]).bad) rows.push_back(static_cast<int>(i));
+    if (measurable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
   if (static_cast<int>(rows.size()) < params_.minReferenceMatches) return false;
   cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
   for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
@@ -249,7 +302,7 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
     const map::MapPointId id = frame.mapPointIds[i];
     if (id == map::kNoMapPoint) continue;
     matched.insert(id);
-    if (map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).visibleCount;
+    if (mapUpdates_ && map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).visibleCount;
   }
   std::set<map::MapPointId> localPoints;
   for (map::KeyFrameId kf : localKeyFrames_)
@@ -260,8 +313,8 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
                                                                             : params_.localMapRadius;
   std::vector<ProjectionCandidate> cands;
   for (map::MapPointId id : localPoints) {
-    map::MapPoint& p = map_.mutableMapPoint(id);
-    if (p.bad) continue;
+    if (!measurable(id)) continue;
+    const map::MapPoint& p = map_.mapPoint(id);
     // ORB-SLAM Frame::isInFrustum: in front, inside the image, within the scale-invariance distances, and
     // seen at less than 60 degrees from its mean viewing direction.
     const Eigen::Vector3d pw = map_.worldPosition(id);
@@ -274,7 +327,7 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
     if (dist < 0.8 * p.minDistance || dist > 1.2 * p.maxDistance) continue;
     const double viewCos = p.normal.norm() > 0 ? po.dot(p.normal) / dist : 1.0;
     if (viewCos < 0.5) continue;
-    ++p.visibleCount;
+    if (mapUpdates_) ++map_.mutableMapPoint(id).visibleCount;
     ProjectionCandidate c;
     c.id = id;
     c.p_world = pw;
@@ -294,7 +347,7 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
   const int inliers = optimizeFramePose(frame);
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId id = frame.mapPointIds[i];
-    if (id != map::kNoMapPoint && map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).foundCount;
+    if (mapUpdates_ && id != map::kNoMapPoint && map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).foundCount;
   }
   return inliers;
 }
@@ -313,8 +366,7 @@ bool Tracker::relocalize(Frame& frame) {
   for (const auto& [kfId, kf] : map_.keyFrames()) {
     std::vector<int> rows;
     for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
-      if (kf.mapPointIds[i] != map::kNoMapPoint && !map_.mapPoint(kf.mapPointIds[i]).bad)
-        rows.push_back(static_cast<int>(i));
+      if (usable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
     if (static_cast<int>(rows.size()) < params_.minReferenceMatches) continue;
     cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
     for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
@@ -349,7 +401,7 @@ bool Tracker::relocalize(Frame& frame) {
       std::set<map::MapPointId> have(frame.mapPointIds.begin(), frame.mapPointIds.end());
       std::vector<ProjectionCandidate> pc;
       for (map::MapPointId id : map_.pointsOf(c.kf)) {
-        if (have.count(id) || map_.mapPoint(id).bad) continue;
+        if (have.count(id) || !usable(id)) continue;
         const map::MapPoint& p = map_.mapPoint(id);
         const Eigen::Vector3d pw = map_.worldPosition(id);
         const double dist = (pw - frame.cameraCenter()).norm();
@@ -383,7 +435,7 @@ map::KeyFrameId Tracker::createKeyFrame(const Frame& frame) {
   std::vector<map::MapPointId> touched;
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId p = frame.mapPointIds[i];
-    if (p == map::kNoMapPoint || frame.outlier[i] || !map_.hasMapPoint(p) || map_.mapPoint(p).bad) continue;
+    if (frame.outlier[i] || !measurable(p)) continue;
     if (map_.addObservation(p, id, i)) touched.push_back(p);
   }
   for (map::MapPointId p : touched) {
@@ -408,11 +460,15 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   if (!initialized_) {
     rep.status = FrameStatus::Initializing;
     rep.method = "initializer";
+    if (!mapUpdates_) {
+      rep.message = "localization only and no map: nothing to track against";
+      return res;
+    }
     InitializationOutcome init;
     Frame reference;
     {
       ScopedStage st(timings, "initialization");
-      init = initializer_.process(frame, map_, rng_, &reference);
+      init = initializer_->process(frame, map_, rng_, &reference);
     }
     rep.matches = init.matches;
     rep.message = init.message;
@@ -479,7 +535,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
     rep.status = FrameStatus::Lost;
     haveVelocity_ = false;
     lost_ = true;
-    if (map_.numKeyFrames() <= static_cast<std::size_t>(params_.resetKeyFrames)) {
+    if (mapUpdates_ && map_.numKeyFrames() <= static_cast<std::size_t>(params_.resetKeyFrames)) {
       // ORB-SLAM: a map this young is not worth relocalizing into; start over.
       rep.message = "lost with " + std::to_string(map_.numKeyFrames()) + " keyframes: map reset";
       reset();
@@ -503,11 +559,19 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   kin.lastRelocFrame = lastRelocFrame_;
   kin.relocalizedEver = relocalizedEver_;
   kin.numKeyFrames = map_.numKeyFrames();
-  kin.referenceTrackedPoints =
-      map_.hasKeyFrame(referenceKeyFrame_) ? map_.trackedMapPoints(referenceKeyFrame_, kin.numKeyFrames <= 2 ? 2 : 3) : 0;
+  if (map_.hasKeyFrame(referenceKeyFrame_)) {
+    const std::size_t minObs = kin.numKeyFrames <= 2 ? 2 : 3;
+    if (!policy_) {
+      kin.referenceTrackedPoints = map_.trackedMapPoints(referenceKeyFrame_, minObs);
+    } else {
+      // ORB-SLAM's TrackedMapPoints over the points the policy lets us use.
+      for (map::MapPointId p : map_.keyFrame(referenceKeyFrame_).mapPointIds)
+        if (usable(p) && map_.mapPoint(p).observations.size() >= minObs) ++kin.referenceTrackedPoints;
+    }
+  }
   kin.trackedInliers = rep.inliers;
   kin.localMappingIdle = localMappingIdle_;
-  if (needNewKeyFrame(kin, params_.keyFrames)) {
+  if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {
     res.newKeyFrames.push_back(createKeyFrame(frame));
     rep.keyFrame = true;
   }

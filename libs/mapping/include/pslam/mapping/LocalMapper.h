@@ -19,6 +19,8 @@
 #include "pslam/landmarks/MapPointPolicy.h"
 #include "pslam/landmarks/MatchingAccuracy.h"
 #include "pslam/map/Map.h"
+#include "pslam/map/PointUsePolicy.h"
+#include "pslam/mapping/MapPointModelPolicy.h"
 #include "pslam/optimize/BundleAdjustment.h"
 #include "pslam/optimize/MapAdapter.h"
 #include "pslam/optimize/Params.h"
@@ -98,8 +100,11 @@ struct LocalMappingReport {
 
 class LocalMapper {
  public:
-  /// Keeps a reference to `map` (must outlive the mapper). Calls params.check().
-  LocalMapper(map::Map& map, const LocalMappingParams& params);
+  /// Keeps a reference to `map` (must outlive the mapper). Calls params.check(). Culling and the BA window ask
+  /// `pointUsePolicy` whether a point may be used; null = the MapPointModelPolicy of params.pointPolicy (share it
+  /// with the tracker through pointUsePolicy(), so both decide alike).
+  LocalMapper(map::Map& map, const LocalMappingParams& params,
+              std::shared_ptr<const map::PointUsePolicy> pointUsePolicy = nullptr);
   ~LocalMapper();
   LocalMapper(const LocalMapper&) = delete;
   LocalMapper& operator=(const LocalMapper&) = delete;
@@ -113,8 +118,10 @@ class LocalMapper {
   /// Forgets the recent-point list (after the tracker cleared the map).
   void reset();
 
-  /// Is the point used for tracking / BA under the chosen map-point model (policy.isActive)?
+  /// Is the point used for tracking / BA (pointUsePolicy()->mayUse)?
   bool isActive(map::MapPointId point) const;
+  /// The policy culling and the BA window ask (the tracker should be given the same one).
+  std::shared_ptr<const map::PointUsePolicy> pointUsePolicy() const;
   landmarks::MapPointModel model() const;
   const LocalMappingParams& params() const { return params_; }
   /// Points still under MapPointCulling probation (ascending id).

@@ -5,11 +5,13 @@
 // pslam::map::Map and writes the result back.
 #include <cstddef>
 #include <map>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Geometry>
 
 #include "pslam/map/Types.h"
+#include "pslam/optimize/BAFactor.h"
 #include "pslam/optimize/Params.h"
 
 namespace pslam::optimize {
@@ -38,12 +40,16 @@ struct BAProblem {
   std::map<map::KeyFrameId, BAKeyFrame> keyframes;
   std::map<map::MapPointId, BAPoint> points;
   std::vector<BAObservation> observations;
+  /// Observations of other landmark kinds (BAFactor.h), optimized jointly; their landmark blocks are updated
+  /// in place.
+  std::vector<std::shared_ptr<BAFactor>> factors;
 };
 
 struct BAResult {
   std::map<map::KeyFrameId, Eigen::Isometry3d> poses;  ///< every non-fixed keyframe that was optimized
   std::map<map::MapPointId, double> inverseDepths;     ///< every non-fixed point that was optimized
   std::vector<std::size_t> outliers;  ///< observation indices with chi2 > threshold or negative depth at the end
+  std::vector<std::size_t> factorOutliers;  ///< indices into BAProblem::factors with chi2 > their threshold at the end
   double initialCost = 0.0, finalCost = 0.0;  ///< Ceres cost (1/2 sum of robustified squares), first/last pass
   /// Unweighted reprojection RMS (pixels) before / after, over the non-anchor observations that are
   /// inliers at the end.

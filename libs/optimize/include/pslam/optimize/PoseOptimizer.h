@@ -6,9 +6,12 @@
 // The solver is Levenberg-Marquardt on the 6x6 normal equations in the left-perturbation tangent space of
 // T_cam_world (as g2o's SE3 vertex in ORB-SLAM), not a Ceres problem: 6 unknowns do not pay for Ceres'
 // per-problem set-up (measured 2.6 -> ~0.5 ms per call at 640x480, doc/slam.md).
+#include <memory>
 #include <vector>
 
 #include <Eigen/Geometry>
+
+#include "pslam/optimize/PoseFactor.h"
 
 #include "pslam/map/Types.h"
 #include "pslam/optimize/Params.h"
@@ -25,6 +28,7 @@ struct PoseOptimizationResult {
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
   int inliers = 0;
   std::vector<bool> outlier;  ///< per observation, after the last round
+  std::vector<bool> factorOutlier;  ///< per extra factor (PoseFactor), after the last round
   int roundsRun = 0;
   double finalChi2Sum = 0.0;  ///< sum of the inliers' chi-square values at the returned pose
 };
@@ -39,12 +43,21 @@ bool poseOnlyResidual(const Eigen::Isometry3d& T_cam_world, const map::CameraInt
 /// at xi = 0 is the one poseOnlyResidual's Jacobian assumes.
 Eigen::Isometry3d retractPoseLeft(const Eigen::Matrix<double, 6, 1>& xi, const Eigen::Isometry3d& T_cam_world);
 
+/// Which degrees of freedom of the pose are optimized.
+enum class PoseFreedom {
+  Full6Dof,        ///< rotation and translation
+  TranslationOnly  ///< the rotation of the initial pose is kept (rotation known, thesis §4.4.2 / eq. 4.2)
+};
+
 /// Optimizes T_cam_world starting from `T_cam_world_initial`. Observations marked in `initialOutliers`
-/// (empty = none) start excluded but are re-checked after the first round. Throws pslam::Error on
-/// non-finite input or a size mismatch.
+/// (empty = none) start excluded but are re-checked after the first round. `factors` are observations of
+/// other landmark kinds (PoseFactor.h) optimized jointly; they start as inliers and are classified with their
+/// own chi-square threshold. Throws pslam::Error on non-finite input or a size mismatch.
 PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial, const map::CameraIntrinsics& camera,
                                     const std::vector<PoseObservation>& observations,
                                     const PoseOptimizationParams& params = {},
-                                    const std::vector<bool>& initialOutliers = {});
+                                    const std::vector<bool>& initialOutliers = {},
+                                    const std::vector<std::shared_ptr<const PoseFactor>>& factors = {},
+                                    PoseFreedom freedom = PoseFreedom::Full6Dof);
 
 }  // namespace pslam::optimize

@@ -4,12 +4,13 @@
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
 //   [LocalMapping] mapping::LocalMappingParams   [System] threaded, localMapper
 #include <string>
+#include <vector>
 
 #include <mrpt/config/CConfigFileBase.h>
 
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/optimize/Params.h"
-#include "pslam/system/KeyFrameMapper.h"
+#include "pslam/mapping/LocalMapper.h"
 #include "pslam/tracking/MonocularInitializer.h"
 #include "pslam/tracking/Tracker.h"
 
@@ -23,6 +24,8 @@ struct SlamParams {
   optimize::BundleAdjustmentParams bundleAdjustment;
   mapping::LocalMappingParams mapping;  ///< [LocalMapping]; mapping.ba is [BundleAdjustment]
   bool threaded = false;  ///< [System] threaded: mapping in a second thread (live use); false = deterministic
+  std::string poseSolver = "full6dof";  ///< [System] poseSolver: tracking::makePoseSolver name
+  std::string mapInitializer = "twoView";  ///< [System] mapInitializer: tracking::makeMapInitializer name
   std::string localMapper = "auto";  ///< [System] localMapper: auto | mapping (the same: libs/mapping)
   std::string sourceIni;  ///< text of the loaded ini (components outside this struct read their keys from it)
 
@@ -34,7 +37,7 @@ struct SlamParams {
   std::string toIniText() const;
 };
 
-/// Loads and checks an ini file; errors name the file.
-SlamParams loadSlamParams(const std::string& iniPath);
+/// Loads and checks an ini file with "Section.key=value" overrides applied; errors name the file.
+SlamParams loadSlamParams(const std::string& iniPath, const std::vector<std::string>& overrides = {});
 
 }  // namespace pslam::system

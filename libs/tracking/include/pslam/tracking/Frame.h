@@ -4,6 +4,7 @@
 // flags, and optional per-keypoint class probabilities sampled from the SEMANTIC channel (Table 3.1).
 #include <array>
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -28,6 +29,13 @@ struct Frame {
   std::vector<double> scaleFactors;      ///< s^level
   std::vector<double> levelSigma2;       ///< s^(2 level)
   std::vector<std::array<float, 3>> semanticProbabilities;  ///< per keypoint, empty without SEMANTIC
+  // Other channels of the rawlog frame (DESIGN.md §3), registered to the raw image; empty when absent.
+  cv::Mat grey;             ///< CV_8UC1 image the keypoints were extracted from (direct features, §3.3)
+  cv::Mat normals;          ///< NORMALS, CV_8UC3 (Manhattan frame, §4.4)
+  cv::Mat depth;            ///< DEPTH, CV_16UC1
+  double depthUnits = 0.0;  ///< metres per depth unit
+  /// Rotation prior R_cam_world for this frame (e.g. from its Manhattan frame), passed to the pose solver.
+  std::optional<Eigen::Matrix3d> rotationPrior;
 
   bool hasPose = false;
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();

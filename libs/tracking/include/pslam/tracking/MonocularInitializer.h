@@ -16,6 +16,7 @@
 #include "pslam/map/Map.h"
 #include "pslam/optimize/Params.h"
 #include "pslam/tracking/Frame.h"
+#include "pslam/tracking/MapInitializer.h"
 
 namespace pslam::tracking {
 
@@ -37,23 +38,19 @@ struct InitializerParams {
   void check() const;
 };
 
-struct InitializationOutcome {
-  bool initialized = false;
-  std::string message;  ///< why not / what was built
-  int matches = 0;
-  map::KeyFrameId kf1 = map::kNoKeyFrame, kf2 = map::kNoKeyFrame;
-};
-
-class MonocularInitializer {
+/// The "twoView" MapInitializer.
+class MonocularInitializer : public MapInitializer {
  public:
   MonocularInitializer(const geometry::PinholeCamera& camera, InitializerParams params,
                        optimize::BundleAdjustmentParams baParams);
 
   /// Feeds one frame. On success `map` (which must be empty) holds the initial map, `current` has its pose and
   /// its matches to the new points, and the reference frame is returned in `referenceOut` with its pose.
-  InitializationOutcome process(Frame& current, map::Map& map, std::mt19937& rng, Frame* referenceOut = nullptr);
-  void reset() { reference_.reset(); }
-  bool hasReference() const { return reference_.has_value(); }
+  std::string name() const override { return "twoView"; }
+  InitializationOutcome process(Frame& current, map::Map& map, std::mt19937& rng,
+                                Frame* referenceOut = nullptr) override;
+  void reset() override { reference_.reset(); }
+  bool hasReference() const override { return reference_.has_value(); }
 
  private:
   geometry::PinholeCamera camera_;

@@ -16,8 +16,10 @@
 #include "pslam/core/StageTimer.h"
 #include "pslam/geometry/Pnp.h"
 #include "pslam/map/Map.h"
+#include "pslam/map/PointUsePolicy.h"
 #include "pslam/tracking/Frame.h"
 #include "pslam/tracking/KeyFrameDecision.h"
+#include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/MonocularInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
 #include "pslam/tracking/ProjectionSearch.h"
@@ -66,8 +68,10 @@ struct FrameReport {
 
 class Tracker {
  public:
-  Tracker(map::Map& map, const geometry::PinholeCamera& camera, TrackerParams params, InitializerParams initParams,
-          optimize::BundleAdjustmentParams baParams, std::unique_ptr<PoseSolver> solver, std::uint32_t seed);
+  /// `initializer` builds the first map (null: twoView with default parameters), `solver` estimates every
+  /// frame's pose (null: full6dof with default parameters).
+  Tracker(map::Map& map, const geometry::PinholeCamera& camera, TrackerParams params,
+          std::unique_ptr<MapInitializer> initializer, std::unique_ptr<PoseSolver> solver, std::uint32_t seed);
 
   struct Result {
     FrameReport report;
@@ -85,10 +89,28 @@ class Tracker {
   Result track(Frame frame, StageTimings& timings);
 
   void setLocalMappingIdle(bool idle) { localMappingIdle_ = idle; }
+  /// The policy that decides which map points tracking may use (null: every point that is not bad). Give it
+  /// the same object local mapping uses (LocalMapper::pointUsePolicy()).
+  void setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> policy);
+  /// false = localization only: no initialization, no keyframes, no change to the map (not even the points'
+  /// visible/found counters), no reset when lost (the map is kept and relocalization retried).
+  void setMapUpdatesEnabled(bool enabled) { mapUpdates_ = enabled; }
+  bool mapUpdatesEnabled() const { return mapUpdates_; }
+  /// The map was replaced by a loaded one: tracking is initialized and lost, the next frame relocalizes.
+  void onMapLoaded();
   void reset();
   bool initialized() const { return initialized_; }
   const Frame& lastFrame() const { return last_; }
   const PoseSolver& poseSolver() const { return *solver_; }
+  const MapInitializer& mapInitializer() const { return *initializer_; }
+  /// May tracking use map point `id` for the pose (exists, not bad, allowed by the point-use policy)?
+  bool usable(map::MapPointId id) const;
+  /// May tracking search and measure it (exists, not bad)? Matches of measurable points that are not usable
+  /// never enter pose optimization; they stay matched when they agree with the estimated pose, so keyframes
+  /// observe them and their model is updated (§3.4.2).
+  bool measurable(map::MapPointId id) const;
+  /// chi_R of Table 3.2: a measured-only match is kept when its whitened squared reprojection error is below.
+  static constexpr double kEvidenceChi2 = 5.991;
 
   // Building blocks (public for tests)
   /// Pose optimization of `frame` against its matches; outliers are unmatched afterwards. Returns inliers.
@@ -106,8 +128,10 @@ class Tracker {
   map::Map& map_;
   geometry::PinholeCamera camera_;
   TrackerParams params_;
-  MonocularInitializer initializer_;
+  std::unique_ptr<MapInitializer> initializer_;
   std::unique_ptr<PoseSolver> solver_;
+  std::shared_ptr<const map::PointUsePolicy> policy_;
+  bool mapUpdates_ = true;
   std::mt19937 rng_;
 
   bool initialized_ = false;

@@ -1,21 +1,23 @@
 #pragma once
-// The slam-run application: rawlog + ini + seed + frame range -> the outputs of DESIGN.md §4 in an output folder:
-//   trajectory.txt  every tracked frame (TUM, camera-to-world), frame poses expressed relative to their
-//                   reference keyframe and composed with its final (bundle-adjusted) pose, as ORB-SLAM saves them
-//   keyframes.txt   keyframe poses (TUM)
-//   map.slammap     the map (map::saveMap)
-//   report.json     effective config, per-frame status and counts, per-stage timings, summary
+// The slam-run application: rawlog + ini (+ --set overrides) + seed + frame range -> the outputs of DESIGN.md §4
+// in an output folder, produced by driving the System façade (libs/system) frame by frame:
+//   trajectory.txt  every tracked frame (TUM, camera-to-world), System::trajectory()
+//   keyframes.txt   keyframe poses (TUM), System::keyFrameTrajectory()
+//   map.slammap     the map (System::saveMap)
+//   report.json     System::report() + the run's inputs (rawlog, config file, overrides, frame range)
 // Every file is written atomically.
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
-namespace pslam::system {
+namespace pslam::apps {
 
 struct SlamRunOptions {
   std::filesystem::path config;
+  std::vector<std::string> overrides;  ///< "Section.key=value" applied over the ini (--set)
   std::filesystem::path rawlog;
   std::filesystem::path outDir;
   std::uint32_t seed = 0;
@@ -38,15 +40,12 @@ struct SlamRunSummary {
 class SlamRunApp {
  public:
   explicit SlamRunApp(SlamRunOptions options);
-  /// Throws pslam::Error for bad input: missing/invalid config, rawlog without CAMERA, missing intrinsics,
-  /// images that change size.
+  /// Throws pslam::Error naming the file (and frame) for bad input: missing/invalid config or override,
+  /// rawlog without CAMERA, missing intrinsics, images that change size.
   SlamRunSummary run();
 
  private:
   SlamRunOptions options_;
 };
 
-/// Process CPU time (all threads) in seconds.
-double processCpuSeconds();
-
-}  // namespace pslam::system
+}  // namespace pslam::apps

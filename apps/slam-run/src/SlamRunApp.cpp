@@ -1,0 +1,117 @@
+#include "pslam/apps/SlamRunApp.h"
+
+#include <chrono>
+#include <iomanip>
+#include <sstream>
+
+#include "pslam/core/Error.h"
+#include "pslam/core/Progress.h"
+#include "pslam/core/Trajectory.h"
+#include "pslam/datasets/Rawlog.h"
+#include "pslam/core/AtomicFile.h"
+#include "pslam/system/System.h"
+
+namespace pslam::apps {
+
+nlohmann::json SlamRunSummary::toJson() const {
+  return {{"frames_read", framesRead},
+          {"frames_processed", framesProcessed},
+          {"frames_tracked", framesTracked},
+          {"frames_lost", framesLost},
+          {"relocalizations", relocalizations},
+          {"initialized", initialized()},
+          {"initialized_at_frame", initializedAtFrame},
+          {"keyframes", keyFrames},
+          {"map_points", mapPoints},
+          {"resets", resets},
+          {"wall_seconds", wallSeconds},
+          {"cpu_seconds", cpuSeconds}};
+}
+
+std::string SlamRunSummary::toText() const {
+  std::ostringstream os;
+  os << "frames " << framesProcessed << ", tracked " << framesTracked << ", lost " << framesLost
+     << ", relocalizations " << relocalizations << ", initialized at "
+     << (initialized() ? std::to_string(initializedAtFrame) : std::string("never")) << ", keyframes " << keyFrames
+     << ", map points " << mapPoints << ", resets " << resets << ", wall " << std::fixed << std::setprecision(2)
+     << wallSeconds << " s, cpu " << cpuSeconds << " s";
+  return os.str();
+}
+
+SlamRunApp::SlamRunApp(SlamRunOptions options) : options_(std::move(options)) {}
+
+SlamRunSummary SlamRunApp::run() {
+  const auto wall0 = std::chrono::steady_clock::now();
+  const double cpu0 = system::processCpuSeconds();
+  require(!options_.outDir.empty(), "slam-run", "no output folder given");
+  require(options_.last < 0 || options_.last >= static_cast<long long>(options_.first), "slam-run",
+          "--last " + std::to_string(options_.last) + " is before --first " + std::to_string(options_.first));
+  const system::SlamParams params = system::loadSlamParams(options_.config.string(), options_.overrides);
+  require(std::filesystem::is_regular_file(options_.rawlog), options_.rawlog.string(), "rawlog not found");
+
+  const std::size_t total = datasets::RawlogReader::countFrames(options_.rawlog);
+  require(total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
+  datasets::RawlogReader reader(options_.rawlog);
+  std::filesystem::create_directories(options_.outDir);
+
+  system::SystemOptions so;
+  so.seed = options_.seed;
+  if (options_.threaded) so.threaded = true;
+  system::System slam(params, so);
+
+  SlamRunSummary sum;
+  const std::size_t lastIndex = options_.last < 0 ? total - 1 : std::min<std::size_t>(options_.last, total - 1);
+  const std::size_t toProcess = options_.first <= lastIndex ? lastIndex - options_.first + 1 : 0;
+  Progress progress("slam-run", toProcess, options_.progress);
+
+  datasets::Frame input;
+  while (reader.next(input)) {
+    ++sum.framesRead;
+    if (input.index < options_.first) continue;
+    if (input.index > lastIndex) break;
+    system::TrackResult r;
+    try {
+      r = slam.track(input);
+    } catch (const Error& e) {
+      throw Error(options_.rawlog.string() + ": " + e.what());
+    }
+    ++sum.framesProcessed;
+    progress.update(sum.framesProcessed, std::string(tracking::toString(r.status)) + " kf " +
+                                             std::to_string(r.report.keyFrames) + " pts " +
+                                             std::to_string(r.report.mapPoints));
+  }
+  require(sum.framesProcessed > 0 || sum.framesRead == 0, options_.rawlog.string(),
+          "no frame in the range [" + std::to_string(options_.first) + ", " + std::to_string(lastIndex) + "]");
+  slam.finish();
+
+  // ---- outputs
+  const nlohmann::json counts = slam.summary();
+  sum.framesTracked = counts["frames_tracked"];
+  sum.framesLost = counts["frames_lost"];
+  sum.relocalizations = counts["relocalizations"];
+  sum.initializedAtFrame = counts["initialized_at_frame"];
+  sum.keyFrames = counts["keyframes"];
+  sum.mapPoints = counts["map_points"];
+  sum.resets = counts["resets"];
+
+  writeTumTrajectory(options_.outDir / "trajectory.txt", slam.trajectory(), "slam-run: every tracked frame, T_world_cam");
+  writeTumTrajectory(options_.outDir / "keyframes.txt", slam.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
+  slam.saveMap(options_.outDir / "map.slammap");
+  sum.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  sum.cpuSeconds = system::processCpuSeconds() - cpu0;
+
+  nlohmann::json report = slam.report();
+  report["tool"] = "slam-run";
+  report["rawlog"] = options_.rawlog.string();
+  report["config_file"] = options_.config.string();
+  report["overrides"] = options_.overrides;
+  report["first"] = options_.first;
+  report["last"] = lastIndex;
+  report["summary"] = sum.toJson();
+  if (!sum.initialized()) report["warning"] = "initialization never succeeded: the trajectory is empty";
+  writeFileAtomically(options_.outDir / "report.json", [&](std::ostream& os) { os << report.dump(1) << "\n"; });
+  progress.finish(sum.toText());
+  return sum;
+}
+
+}  // namespace pslam::apps

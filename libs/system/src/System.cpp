@@ -1,0 +1,444 @@
+#include "pslam/system/System.h"
+
+#include <algorithm>
+#include <cmath>
+#include <condition_variable>
+#include <ctime>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "pslam/core/Error.h"
+#include "pslam/features/OrbExtractor.h"
+#include "pslam/map/MapIO.h"
+#include "pslam/mapping/LocalMapper.h"
+#include "pslam/tracking/MapInitializer.h"
+#include "pslam/tracking/PoseSolver.h"
+
+namespace pslam::system {
+
+double processCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+namespace {
+
+/// One frame with a pose, kept as ORB-SLAM keeps it for SaveTrajectoryTUM: relative to its reference keyframe,
+/// so that the trajectory follows the keyframes when local BA refines them.
+struct TrackedPose {
+  double timestamp = 0.0;
+  int generation = 0;
+  map::KeyFrameId reference = map::kNoKeyFrame;
+  Eigen::Isometry3d T_cam_ref = Eigen::Isometry3d::Identity();    ///< relative to the reference keyframe
+  Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();  ///< as tracked (reference gone / unknown)
+};
+
+/// Reference keyframe of a tracked frame and the frame's pose relative to it (map lock held by the caller).
+template <class ImplT>
+void relativeToReference(const ImplT& s, const tracking::Tracker::Result& res, map::KeyFrameId& reference,
+                         Eigen::Isometry3d& T_cam_ref, map::KeyFrameId& root) {
+  if (res.hasPose && res.referenceKeyFrame != map::kNoKeyFrame && s.map.hasKeyFrame(res.referenceKeyFrame)) {
+    reference = res.referenceKeyFrame;
+    T_cam_ref = res.T_cam_world * s.map.keyFrame(reference).T_world_cam();
+  }
+  if (res.initialReferencePose) root = s.map.rootKeyFrame();
+}
+
+struct Counters {
+  std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, resets = 0;
+  long long initializedAtFrame = -1;
+};
+
+}  // namespace
+
+struct System::Impl {
+  Impl(const SlamParams& p, const geometry::PinholeCamera& cam, std::uint32_t seed, bool threadedMode)
+      : params(p),
+        camera(cam),
+        extractor(p.orb),
+        initExtractor([&] {
+          features::OrbParams o = p.orb;
+          o.nFeatures = static_cast<int>(std::lround(p.initializer.featureFactor * o.nFeatures));
+          return o;
+        }()),
+        threaded(threadedMode) {
+    params.mapping.ba = params.bundleAdjustment;
+    mapper = std::make_unique<mapping::LocalMapper>(map, params.mapping);
+    tracker = std::make_unique<tracking::Tracker>(
+        map, camera, params.tracking,
+        tracking::makeMapInitializer(params.mapInitializer, camera, params.initializer, params.bundleAdjustment),
+        tracking::makePoseSolver(params.poseSolver, params.poseOptimization), seed);
+    // The one point-use decision (§3.4.2-3.4.3): tracking asks the policy local mapping culls and optimizes with.
+    tracker->setPointUsePolicy(mapper->pointUsePolicy());
+    if (threaded) worker = std::thread([this] { mappingLoop(); });
+  }
+
+  ~Impl() {
+    if (worker.joinable()) {
+      {
+        std::lock_guard<std::mutex> lk(queueMutex);
+        stop = true;
+      }
+      queueCv.notify_all();
+      worker.join();
+    }
+  }
+
+  /// Runs local mapping on `kfs` (caller holds mapMutex in threaded mode).
+  void mapKeyFrames(const std::vector<map::KeyFrameId>& kfs) {
+    for (map::KeyFrameId kf : kfs) {
+      if (!map.hasKeyFrame(kf)) continue;  // erased meanwhile
+      const mapping::LocalMappingReport r = mapper->processKeyFrame(kf, {});
+      mappingLog.push_back({{"generation", generation},
+                            {"keyframe", kf},
+                            {"new_points", r.newPoints},
+                            {"culled_points", r.culledPoints},
+                            {"culled_keyframes", r.culledKeyFrames},
+                            {"ba_observations_erased", r.baObservationsErased},
+                            {"fused", r.fusedPoints},
+                            {"map_points", map.numMapPoints()},
+                            {"keyframes", map.numKeyFrames()}});
+      mappingTimings.add("triangulation", r.triangulationMs);
+      mappingTimings.add("local_ba", r.localBaMs);
+      mappingTimings.add("fusion", r.fusionMs);
+    }
+  }
+
+  void mappingLoop() {
+    for (;;) {
+      std::pair<int, map::KeyFrameId> item;
+      {
+        std::unique_lock<std::mutex> lk(queueMutex);
+        queueCv.wait(lk, [&] { return stop || !queue.empty(); });
+        if (queue.empty()) return;  // stop requested and nothing left
+        item = queue.front();
+        queue.pop_front();
+        busy = true;
+      }
+      {
+        std::lock_guard<std::mutex> mk(mapMutex);
+        // Keyframe ids restart after a reset: a queued id of an older map generation is stale.
+        if (item.first == generation && mappingEnabled) mapKeyFrames({item.second});
+      }
+      {
+        std::lock_guard<std::mutex> lk(queueMutex);
+        busy = false;
+      }
+      queueCv.notify_all();
+    }
+  }
+
+  void waitForMapping() {
+    if (!threaded) return;
+    std::unique_lock<std::mutex> lk(queueMutex);
+    queueCv.wait(lk, [&] { return queue.empty() && !busy; });
+  }
+
+  /// A new map generation: poses of earlier maps are never mixed with the new one.
+  void newGeneration() {
+    ++generation;
+    poses.clear();
+  }
+
+  SlamParams params;
+  geometry::PinholeCamera camera;
+  map::Map map;
+  features::OrbExtractor extractor;
+  features::OrbExtractor initExtractor;  ///< featureFactor x nFeatures, used until the map is initialized
+  std::unique_ptr<mapping::LocalMapper> mapper;
+  std::unique_ptr<tracking::Tracker> tracker;
+  StageTimings trackingTimings, mappingTimings;
+  nlohmann::json mappingLog = nlohmann::json::array();
+  nlohmann::json frames = nlohmann::json::array();
+  std::vector<TrackedPose> poses;  ///< of the current generation
+  Counters counters;
+  int generation = 0;
+  bool mappingEnabled = true;
+
+  bool threaded = false;
+  mutable std::mutex mapMutex;
+  std::mutex queueMutex;
+  std::condition_variable queueCv;
+  std::deque<std::pair<int, map::KeyFrameId>> queue;  ///< (generation, keyframe)
+  bool busy = false;
+  bool stop = false;
+  std::thread worker;
+};
+
+System::System(SlamParams params, SystemOptions options)
+    : params_(std::move(params)), options_(std::move(options)) {
+  params_.check();
+  // Unknown solver / initializer names fail here, not at the first frame.
+  auto known = [](const std::vector<std::string>& names, const std::string& name) {
+    return std::find(names.begin(), names.end(), name) != names.end();
+  };
+  if (!known(tracking::poseSolverNames(), params_.poseSolver))
+    tracking::makePoseSolver(params_.poseSolver, params_.poseOptimization);  // throws naming the key and choices
+  if (!known(tracking::mapInitializerNames(), params_.mapInitializer))
+    tracking::makeMapInitializer(params_.mapInitializer, geometry::PinholeCamera(), params_.initializer,
+                                 params_.bundleAdjustment);
+  threaded_ = options_.threaded.value_or(params_.threaded);
+  if (options_.camera) {
+    options_.camera->check();
+    camera_ = options_.camera;
+    impl_ = std::make_unique<Impl>(params_, *camera_, options_.seed, threaded_);
+  }
+}
+
+System::~System() = default;
+
+const geometry::PinholeCamera& System::camera() const {
+  require(camera_.has_value(), "System", "no camera yet: it is taken from the first frame");
+  return *camera_;
+}
+
+bool System::initialized() const {
+  if (!impl_) return false;
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  return impl_->tracker->initialized();
+}
+
+TrackResult System::track(const datasets::Frame& input) {
+  const std::string ctx = "frame " + std::to_string(input.index);
+  require(!input.image.empty(), ctx, "CAMERA image is empty");
+  require(std::isfinite(input.timestamp), ctx, "timestamp is not finite");
+  if (!impl_) {
+    geometry::PinholeCamera cam;
+    try {
+      cam = geometry::PinholeCamera::fromTCamera(input.camera);
+    } catch (const std::exception& e) {
+      throw Error(ctx + ": invalid or missing CAMERA intrinsics: " + e.what());
+    }
+    require(cam.width == input.image.cols && cam.height == input.image.rows, ctx,
+            "intrinsics resolution " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                " differs from the image " + std::to_string(input.image.cols) + "x" + std::to_string(input.image.rows));
+    camera_ = cam;
+    impl_ = std::make_unique<Impl>(params_, cam, options_.seed, threaded_);
+    impl_->mappingEnabled = mappingEnabled_;
+    impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
+  }
+  Impl& s = *impl_;
+  require(input.image.cols == s.camera.width && input.image.rows == s.camera.height, ctx,
+          "image size changed to " + std::to_string(input.image.cols) + "x" + std::to_string(input.image.rows) +
+              " (first frame: " + std::to_string(s.camera.width) + "x" + std::to_string(s.camera.height) + ")");
+
+  tracking::Tracker::Result res;
+  Eigen::Isometry3d T_cam_ref = Eigen::Isometry3d::Identity();
+  map::KeyFrameId reference = map::kNoKeyFrame;
+  map::KeyFrameId root = map::kNoKeyFrame;
+  {
+    // tracking_total = extraction + tracking without local mapping (ORB-SLAM's per-frame tracking time).
+    ScopedStage total(s.trackingTimings, "tracking_total");
+    tracking::Frame frame;
+    {
+      ScopedStage st(s.trackingTimings, "extraction");
+      frame = tracking::makeFrame(input, s.camera, s.tracker->initialized() ? s.extractor : s.initExtractor,
+                                  ctx + " (t=" + std::to_string(input.timestamp) + ")");
+    }
+    if (s.threaded) {
+      std::lock_guard<std::mutex> lk(s.queueMutex);
+      s.tracker->setLocalMappingIdle(s.queue.empty() && !s.busy);
+    }
+    std::unique_lock<std::mutex> mk(s.mapMutex, std::defer_lock);
+    if (s.threaded) mk.lock();
+    res = s.tracker->track(std::move(frame), s.trackingTimings);
+    if (res.mapWasReset) {
+      s.mapper->reset();
+      s.newGeneration();
+    }
+    // Threaded: the pose relative to the reference keyframe is read under the same lock as tracking, since the
+    // mapping thread may move the keyframe right after.
+    if (s.threaded) relativeToReference(s, res, reference, T_cam_ref, root);
+  }
+
+  // Local mapping: in this thread (sequential, deterministic) or queued for the mapping thread.
+  if (s.mappingEnabled && !res.newKeyFrames.empty()) {
+    if (!s.threaded) {
+      s.mapKeyFrames(res.newKeyFrames);
+    } else {
+      {
+        std::lock_guard<std::mutex> lk(s.queueMutex);
+        for (map::KeyFrameId kf : res.newKeyFrames) s.queue.emplace_back(s.generation, kf);
+      }
+      s.queueCv.notify_all();
+    }
+  }
+  // Sequential: relative to the reference keyframe as local mapping left it (the frame follows later
+  // refinements of that keyframe from here on).
+  if (!s.threaded) relativeToReference(s, res, reference, T_cam_ref, root);
+
+  // Bookkeeping of the trajectory and the counters (under the map lock when threaded: the getters take it).
+  std::unique_lock<std::mutex> bookLock(s.mapMutex, std::defer_lock);
+  if (s.threaded) bookLock.lock();
+  Counters& c = s.counters;
+  ++c.frames;
+  if (res.mapWasReset) ++c.resets;
+  if (res.initialReferencePose) {
+    if (c.initializedAtFrame < 0 || res.mapWasReset) c.initializedAtFrame = static_cast<long long>(input.index);
+    s.poses.push_back({res.initialReferencePose->first, s.generation, root, Eigen::Isometry3d::Identity(),
+                       res.initialReferencePose->second});
+  }
+  if (res.report.status == tracking::FrameStatus::Lost) ++c.lost;
+  if (res.report.status == tracking::FrameStatus::Relocalized) ++c.relocalizations;
+  if (res.hasPose) {
+    ++c.tracked;
+    s.poses.push_back({input.timestamp, s.generation, reference, T_cam_ref, res.T_cam_world});
+  }
+  s.frames.push_back(res.report.toJson());
+  if (bookLock.owns_lock()) bookLock.unlock();
+
+  TrackResult out;
+  out.status = res.report.status;
+  out.keyFrame = res.report.keyFrame;
+  out.mapWasReset = res.mapWasReset;
+  if (res.hasPose) out.pose = StampedPose(input.timestamp, res.T_cam_world.inverse()).toCPose3D();
+  out.report = std::move(res.report);
+  return out;
+}
+
+void System::finish() {
+  if (impl_) impl_->waitForMapping();
+}
+
+Trajectory System::trajectory() const {
+  Trajectory trajectory;
+  if (!impl_) return trajectory;
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  const map::Map& m = impl_->map;
+  for (const TrackedPose& p : impl_->poses) {
+    Eigen::Isometry3d T_cam_world = p.T_cam_world;
+    // The reference keyframe may have been culled since: its pose then follows its spanning-tree parent.
+    if (p.reference != map::kNoKeyFrame)
+      if (const auto T_ref_world = m.keyFramePoseIncludingErased(p.reference)) T_cam_world = p.T_cam_ref * *T_ref_world;
+    trajectory.emplace_back(p.timestamp, T_cam_world.inverse());
+  }
+  std::stable_sort(trajectory.begin(), trajectory.end(),
+                   [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
+  return trajectory;
+}
+
+Trajectory System::keyFrameTrajectory() const {
+  Trajectory keyframes;
+  if (!impl_) return keyframes;
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  for (const auto& [id, kf] : impl_->map.keyFrames()) keyframes.emplace_back(kf.timestamp, kf.T_world_cam());
+  return keyframes;
+}
+
+map::Map System::mapSnapshot() const {
+  if (!impl_) return map::Map();
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  return impl_->map;
+}
+
+void System::saveMap(const std::filesystem::path& path) const { map::saveMap(mapSnapshot(), path); }
+
+void System::loadMap(const std::filesystem::path& path) {
+  map::Map loaded = map::loadMap(path);
+  require(loaded.numKeyFrames() > 0, path.string(), "map has no keyframe: nothing to localize against");
+  const map::CameraIntrinsics mapCamera = loaded.keyFrames().begin()->second.camera;
+  if (!impl_) {
+    // Without a camera yet, the map's (undistorted) intrinsics are the camera; frames must then fit them.
+    geometry::PinholeCamera cam(mapCamera.fx, mapCamera.fy, mapCamera.cx, mapCamera.cy, mapCamera.width,
+                                mapCamera.height);
+    cam.check();
+    camera_ = cam;
+    impl_ = std::make_unique<Impl>(params_, cam, options_.seed, threaded_);
+    impl_->mappingEnabled = mappingEnabled_;
+    impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
+  }
+  impl_->waitForMapping();
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  const map::CameraIntrinsics own = tracking::toIntrinsics(impl_->camera);
+  require(own == mapCamera, path.string(),
+          "map camera (fx " + std::to_string(mapCamera.fx) + ", " + std::to_string(mapCamera.width) + "x" +
+              std::to_string(mapCamera.height) + ") differs from the camera of this run (fx " + std::to_string(own.fx) +
+              ", " + std::to_string(own.width) + "x" + std::to_string(own.height) + ")");
+  impl_->map = std::move(loaded);
+  impl_->mapper->reset();
+  impl_->tracker->onMapLoaded();
+  impl_->newGeneration();
+}
+
+void System::setMappingEnabled(bool enabled) {
+  mappingEnabled_ = enabled;
+  if (!impl_) return;
+  impl_->waitForMapping();
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  impl_->mappingEnabled = enabled;
+  impl_->tracker->setMapUpdatesEnabled(enabled);
+}
+
+void System::reset() {
+  if (!impl_) return;
+  impl_->waitForMapping();
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  impl_->tracker->reset();
+  impl_->mapper->reset();
+  impl_->newGeneration();
+  impl_->counters.initializedAtFrame = -1;
+}
+
+StageTimings System::timings() const {
+  StageTimings all;
+  if (!impl_) return all;
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  all = impl_->trackingTimings;
+  for (const auto& [stage, samples] : impl_->mappingTimings.samples())
+    for (double v : samples) all.add(stage, v);
+  return all;
+}
+
+nlohmann::json System::mappingLog() const {
+  if (!impl_) return nlohmann::json::array();
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  return impl_->mappingLog;
+}
+
+nlohmann::json System::summary() const {
+  Counters c;
+  std::size_t keyFrames = 0, mapPoints = 0;
+  if (impl_) {
+    std::lock_guard<std::mutex> mk(impl_->mapMutex);
+    c = impl_->counters;
+    keyFrames = impl_->map.numKeyFrames();
+    mapPoints = impl_->map.numMapPoints();
+  }
+  return {{"frames_processed", c.frames},
+          {"frames_tracked", c.tracked},
+          {"frames_lost", c.lost},
+          {"relocalizations", c.relocalizations},
+          {"initialized", c.initializedAtFrame >= 0},
+          {"initialized_at_frame", c.initializedAtFrame},
+          {"keyframes", keyFrames},
+          {"map_points", mapPoints},
+          {"resets", c.resets}};
+}
+
+nlohmann::json System::report() const {
+  nlohmann::json r;
+  r["config"] = params_.toIniText();
+  r["seed"] = options_.seed;
+  r["mode"] = threaded_ ? "threaded" : "sequential";
+  r["mapping_enabled"] = mappingEnabled_;
+  r["pose_solver"] = params_.poseSolver;
+  r["map_initializer"] = params_.mapInitializer;
+  r["summary"] = summary();
+  if (impl_) {
+    const geometry::PinholeCamera& cam = impl_->camera;
+    r["camera"] = {{"fx", cam.fx}, {"fy", cam.fy}, {"cx", cam.cx}, {"cy", cam.cy},
+                   {"width", cam.width}, {"height", cam.height}};
+    r["point_policy"] = impl_->mapper->pointUsePolicy()->name();
+    r["timings"] = timings().summary();
+    r["mapping"] = mappingLog();
+    std::lock_guard<std::mutex> mk(impl_->mapMutex);
+    r["frames"] = impl_->frames;
+  } else {
+    r["frames"] = nlohmann::json::array();
+  }
+  return r;
+}
+
+}  // namespace pslam::system

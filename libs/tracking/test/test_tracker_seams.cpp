@@ -1,0 +1,202 @@
+// The tracker's seams: the point-use policy (tracking never uses a point the policy refuses: projection
+// searches, pose optimization, keyframe decision), the pose-solver and initializer factories (unknown names
+// are errors listing the known ones; registered implementations are reached by name), and the rotation prior.
+#include <array>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "SyntheticScene.h"
+#include "pslam/core/Error.h"
+#include "pslam/tracking/MapInitializer.h"
+#include "pslam/tracking/PoseSolver.h"
+#include "pslam/tracking/Tracker.h"
+
+using namespace pslam;
+namespace mt = pslam::mapping::testing;
+
+namespace {
+
+class OddIdsRefused : public map::PointUsePolicy {
+ public:
+  std::string name() const override { return "odd-ids-refused"; }
+  bool mayUse(const map::MapPoint& p) const override { return !p.bad && p.id % 2 == 0; }
+  bool shouldCull(const map::MapPoint& p, map::KeyFrameId) const override { return p.bad; }
+};
+
+struct World {
+  mt::Scene scene = mt::makeScene(400, 7);
+  map::Map map;
+  geometry::PinholeCamera camera{500.0, 500.0, 320.0, 240.0, 640, 480};
+};
+
+/// Map: keyframes at slots 0..2 observing true points; returns the frame seen from slot 3 (exact keypoints,
+/// the scene's descriptors) with a slightly wrong pose and a few seed matches (odd and even ids).
+tracking::Frame makeWorldAndFrame(World& w) {
+  std::mt19937 rng(5);
+  for (int slot = 0; slot < 3; ++slot) mt::addKeyFrame(w.map, w.scene, slot, rng);
+  mt::addTruePoints(w.map, w.scene, 0, 400, 0, {0, 1, 2});
+  for (const auto& [id, kf] : w.map.keyFrames()) w.map.connectToSpanningTree(id);
+  const Eigen::Isometry3d T = mt::poseOf(3);
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc(0, 32, CV_8U);
+  std::vector<int> sceneOf;
+  for (std::size_t i = 0; i < w.scene.points.size(); ++i) {
+    const Eigen::Vector3d pc = T * w.scene.points[i];
+    if (pc.z() <= 0.1) continue;
+    const Eigen::Vector2d px = w.camera.project(pc);
+    if (px.x() < 0 || px.y() < 0 || px.x() >= 640 || px.y() >= 480) continue;
+    kps.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, w.scene.angles[i], 1.f, 0);
+    desc.push_back(w.scene.descriptors[i]);
+    sceneOf.push_back(static_cast<int>(i));
+  }
+  tracking::Frame f = tracking::makeFrameFromFeatures(10, 1.0, w.camera, kps, desc, 8, 1.2);
+  f.T_cam_world = T;
+  f.T_cam_world.translation() += Eigen::Vector3d(0.01, -0.005, 0.01);
+  f.hasPose = true;
+  int seeded = 0;
+  for (std::size_t k = 0; k < sceneOf.size() && seeded < 40; ++k) {
+    const map::MapPointId id = w.scene.mapPointOf[sceneOf[k]];
+    if (id == map::kNoMapPoint) continue;
+    f.mapPointIds[k] = id;
+    ++seeded;
+  }
+  return f;
+}
+
+std::unique_ptr<tracking::Tracker> makeTracker(World& w) {
+  return std::make_unique<tracking::Tracker>(w.map, w.camera, tracking::TrackerParams{}, nullptr, nullptr, 1);
+}
+
+}  // namespace
+
+/// Records the world points of every observation a pose optimization receives, then solves as full6dof.
+struct RecordingSolver : tracking::PoseSolver {
+  std::shared_ptr<std::vector<Eigen::Vector3d>> seen = std::make_shared<std::vector<Eigen::Vector3d>>();
+  tracking::FullPoseSolver inner;
+  std::string name() const override { return "recording"; }
+  optimize::PoseOptimizationResult solve(const tracking::PoseSolveRequest& r) const override {
+    for (const auto& o : r.observations) seen->push_back(o.p_world);
+    return inner.solve(r);
+  }
+};
+
+/// Runs local-map tracking of the slot-3 frame; returns (inliers, odd points in pose optimization, odd points
+/// left matched, odd points a keyframe made from the frame observes).
+std::array<int, 4> trackWith(std::shared_ptr<const map::PointUsePolicy> policy) {
+  World w;
+  tracking::Frame f = makeWorldAndFrame(w);
+  auto solver = std::make_unique<RecordingSolver>();
+  auto seen = solver->seen;
+  tracking::Tracker tracker(w.map, w.camera, tracking::TrackerParams{}, nullptr, std::move(solver), 1);
+  tracker.setPointUsePolicy(policy);
+  const int inliers = tracker.trackLocalMap(f);
+  std::set<std::pair<double, double>> oddPositions;
+  for (const auto& [id, p] : w.map.mapPoints())
+    if (id % 2 == 1) oddPositions.insert({w.map.worldPosition(id).x(), w.map.worldPosition(id).y()});
+  int oddInOptimization = 0, oddMatched = 0, oddObserved = 0;
+  for (const Eigen::Vector3d& p : *seen) oddInOptimization += oddPositions.count({p.x(), p.y()}) ? 1 : 0;
+  for (map::MapPointId id : f.mapPointIds) oddMatched += id != map::kNoMapPoint && id % 2 == 1 ? 1 : 0;
+  const map::KeyFrameId kf = tracker.createKeyFrame(f);
+  for (map::MapPointId id : w.map.pointsOf(kf)) oddObserved += id % 2 == 1 ? 1 : 0;
+  return {inliers, oddInOptimization, oddMatched, oddObserved};
+}
+
+TEST(TrackerSeams, PoseOptimizationNeverUsesAPointThePolicyRefuses) {
+  // Without a policy the odd points take part in the pose (so the check below can fail) ...
+  const auto all = trackWith(nullptr);
+  EXPECT_GT(all[0], 100);
+  EXPECT_GT(all[1], 50);
+  // ... with it none does, the pose rests on the others, and the refused points are still measured: matched
+  // where they agree with the pose, and observed by the keyframe, so their model gets the evidence (§3.4.2).
+  const auto refused = trackWith(std::make_shared<OddIdsRefused>());
+  EXPECT_GT(refused[0], 50);
+  EXPECT_EQ(refused[1], 0) << "a refused point entered pose optimization";
+  EXPECT_LT(refused[0], all[0]);
+  EXPECT_GT(refused[2], 50);
+  EXPECT_GT(refused[3], 50);
+}
+
+TEST(TrackerSeams, UsableAndMeasurable) {
+  World w;
+  makeWorldAndFrame(w);
+  auto tracker = makeTracker(w);
+  tracker->setPointUsePolicy(std::make_shared<OddIdsRefused>());
+  EXPECT_FALSE(tracker->usable(1));
+  EXPECT_TRUE(tracker->measurable(1));
+  EXPECT_TRUE(tracker->usable(2));
+  EXPECT_FALSE(tracker->measurable(map::kNoMapPoint));
+}
+
+TEST(TrackerSeams, LocalizationOnlyLeavesTheMapUnchanged) {
+  World w;
+  tracking::Frame f = makeWorldAndFrame(w);
+  auto tracker = makeTracker(w);
+  tracker->setMapUpdatesEnabled(false);
+  const map::Map before = w.map;
+  EXPECT_GT(tracker->trackLocalMap(f), 100);
+  EXPECT_TRUE(before == w.map) << "visible/found counters or observations changed in localization mode";
+}
+
+TEST(TrackerSeams, PoseSolverFactoryKnowsItsSolversAndRefusesOthers) {
+  EXPECT_EQ(tracking::makePoseSolver("full6dof", {})->name(), "full6dof");
+  EXPECT_EQ(tracking::makePoseSolver("translationOnly", {})->name(), "translationOnly");
+  try {
+    tracking::makePoseSolver("bogus", {});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("[System] poseSolver = bogus"), std::string::npos) << m;
+    EXPECT_NE(m.find("full6dof"), std::string::npos) << m;
+  }
+  // A registered solver is reached by name (what [System] poseSolver selects).
+  struct Fixed : tracking::PoseSolver {
+    std::string name() const override { return "fixed"; }
+    optimize::PoseOptimizationResult solve(const tracking::PoseSolveRequest& r) const override {
+      optimize::PoseOptimizationResult out;
+      out.T_cam_world = r.T_cam_world_initial;
+      out.outlier.assign(r.observations.size(), false);
+      out.inliers = static_cast<int>(r.observations.size());
+      return out;
+    }
+  };
+  tracking::registerPoseSolver("fixed", [](const optimize::PoseOptimizationParams&) { return std::make_unique<Fixed>(); });
+  EXPECT_EQ(tracking::makePoseSolver("fixed", {})->name(), "fixed");
+}
+
+TEST(TrackerSeams, InitializerFactoryKnowsTwoViewAndRefusesOthers) {
+  const geometry::PinholeCamera cam{500.0, 500.0, 320.0, 240.0, 640, 480};
+  EXPECT_EQ(tracking::makeMapInitializer("twoView", cam, {}, {})->name(), "twoView");
+  try {
+    tracking::makeMapInitializer("manhattan?", cam, {}, {});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("[System] mapInitializer = manhattan?"), std::string::npos) << m;
+    EXPECT_NE(m.find("twoView"), std::string::npos) << m;
+  }
+}
+
+TEST(TrackerSeams, TranslationOnlySolverTakesTheRotationPrior) {
+  World w;
+  tracking::Frame f = makeWorldAndFrame(w);
+  // Correspondences of the frame with the true points, and a start pose with a wrong rotation.
+  tracking::PoseSolveRequest r;
+  r.camera = f.camera;
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    const map::MapPointId id = f.mapPointIds[k];
+    if (id == map::kNoMapPoint) continue;
+    r.observations.push_back({w.map.worldPosition(id), f.pixel(k), 1.0});
+  }
+  ASSERT_GE(r.observations.size(), 30u);
+  const Eigen::Isometry3d truth = mt::poseOf(3);
+  r.T_cam_world_initial = truth;
+  r.T_cam_world_initial.linear() = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()).toRotationMatrix() * truth.linear();
+  r.T_cam_world_initial.translation() += Eigen::Vector3d(0.05, 0.0, -0.03);
+  r.rotationPrior = truth.linear();
+  const auto solver = tracking::makePoseSolver("translationOnly", {});
+  const optimize::PoseOptimizationResult out = solver->solve(r);
+  EXPECT_LT((out.T_cam_world.linear() - truth.linear()).norm(), 1e-12);
+  EXPECT_LT((out.T_cam_world.inverse().translation() - truth.inverse().translation()).norm(), 1e-6);
+}
