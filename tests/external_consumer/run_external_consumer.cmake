@@ -1,15 +1,19 @@
 # CTest driver of the `external_consumer` e2e test (cmake -P). Installs the build tree into a temporary
-# prefix, configures and builds tests/external_consumer against it (find_package(priorslam CONFIG)), renders
-# a short synthetic rawlog with the *installed* slam-synth and runs the consumer on it with the installed
-# config/slam/synthetic.ini. Checks: exit code 0, one output line per frame, a `summary` line, the map file.
+# prefix, configures and builds tests/external_consumer (examples/minimal_slam.cpp) against it
+# (find_package(priorslam CONFIG)), renders a short synthetic rawlog with the *installed* slam-synth and runs
+# minimal_slam on it with the installed config/slam/synthetic.ini. Checks: exit code 0, one output line per
+# frame, a `summary` line, the map file.
 #
-# Variables (-D): BUILD_DIR, SOURCE_DIR, WORK_DIR, CONSUMER_SOURCE; optional FRAMES (40), GENERATOR,
-# COMPILER_LAUNCHER, CXX_COMPILER, KEEP (keep WORK_DIR).
-foreach(v BUILD_DIR SOURCE_DIR WORK_DIR CONSUMER_SOURCE)
+# Variables (-D): BUILD_DIR, SOURCE_DIR, WORK_DIR; optional CONSUMER_SOURCE (examples/minimal_slam.cpp),
+# FRAMES (40), GENERATOR, COMPILER_LAUNCHER, CXX_COMPILER, KEEP (keep WORK_DIR).
+foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
   if(NOT DEFINED ${v})
     message(FATAL_ERROR "run_external_consumer.cmake: -D${v}=... is required")
   endif()
 endforeach()
+if(NOT DEFINED CONSUMER_SOURCE)
+  set(CONSUMER_SOURCE "${SOURCE_DIR}/examples/minimal_slam.cpp")
+endif()
 if(NOT DEFINED FRAMES)
   set(FRAMES 40)
 endif()
@@ -60,7 +64,7 @@ if(CXX_COMPILER)
 endif()
 run("configure the consumer" ${CMAKE_COMMAND} ${cfg})
 run("build the consumer" ${CMAKE_COMMAND} --build "${build}")
-set(consumer "${build}/consumer")
+set(consumer "${build}/minimal_slam")
 
 # 3. Render a short synthetic sequence with the installed tool.
 run("slam-synth --scenario room --frames ${FRAMES}" "${prefix}/bin/slam-synth" --scenario room --frames ${FRAMES}
@@ -71,7 +75,7 @@ endif()
 
 # 4. Run the consumer with the installed SLAM config.
 set(map "${WORK_DIR}/map.slammap")
-run("consumer on ${FRAMES} frames" "${consumer}" "${prefix}/share/priorslam/config/slam/synthetic.ini"
+run("minimal_slam on ${FRAMES} frames" "${consumer}" "${prefix}/share/priorslam/config/slam/synthetic.ini"
     "${data}/room.rawlog" "${map}")
 string(REGEX MATCHALL "(^|\n)[0-9]+ [^\n]*" frame_lines "${RUN_OUTPUT}")
 list(LENGTH frame_lines n)
