@@ -12,8 +12,9 @@
 int main(int argc, char** argv) {
   using namespace pslam::eval;
   CLI::App cli{"Trajectory evaluation: ATE, RPE, RE (thesis eq. 4.8) and DR (eq. 2.104), evo-compatible.\n"
-               "Every default is evo's (evo_ape / evo_rpe with -a / -as) unless its help names another tool; the\n"
-               "TUM benchmark scripts (associate.py, evaluate_ate.py) are reproduced with\n"
+               "Defaults are evo's (evo_ape / evo_rpe), except alignment: evo aligns only when asked, slam-eval\n"
+               "aligns with Sim(3) (evo's -as) unless told otherwise, as monocular runs have no scale. The TUM\n"
+               "benchmark scripts (associate.py, evaluate_ate.py) are reproduced with\n"
                "--association tum --max-diff 0.02 --align se3. See doc/eval.md."};
   const EvalOptions defaults;
   std::string gtPath, estPath, gtFormat = "auto", estFormat = "auto", assoc = "nearest", align = "sim3";
@@ -34,7 +35,7 @@ int main(int argc, char** argv) {
                      ->capture_default_str();
   auto* oMaxDiff = cli.add_option("--max-diff", maxDiff, "max. time difference for association [s]; default = evo's max_diff (TUM associate.py: 0.02)")->capture_default_str();
   auto* oOffset = cli.add_option("--offset", offset, "time offset added to the estimate's stamps [s]")->capture_default_str();
-  auto* oAlign = cli.add_option("--align", align, "none|se3|sim3; default sim3 = evo's -as, for monocular runs (TUM evaluate_ate.py: se3)")->capture_default_str();
+  auto* oAlign = cli.add_option("--align", align, "none|se3|sim3; default sim3 = evo's -as, for monocular runs (evo: none; TUM evaluate_ate.py: se3)")->capture_default_str();
   auto* oFirst = cli.add_option("--align-first", alignFirst, "align on the first N pairs only (0 = all)");
   auto* oDelta = cli.add_option("--delta", delta, "RPE delta (evo's default)")->capture_default_str();
   auto* oUnit = cli.add_option("--delta-unit", deltaUnit, "RPE delta unit: frames|m (evo's default frames)")->capture_default_str();
