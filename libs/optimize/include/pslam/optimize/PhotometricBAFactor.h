@@ -7,7 +7,7 @@
 // Analytic Jacobians w.r.t. the blocks' ambient parameters (quaternion coefficients included; Ceres maps them to
 // the PoseManifold tangent), with the gradient of the bilinear target interpolant as in the pose factor; the tests
 // check them against ceres::GradientChecker and an automatic-differentiation version of the same cost
-// (ImagePyramid.h's Jet overload of the interpolant), which is 40x slower. A pattern pixel behind
+// (ImagePyramid.h's Jet overload of the interpolant), about 20x slower. A pattern pixel behind
 // the target fails the evaluation (Ceres rejects that step; the outlier test then flags the factor); pixels
 // leaving the image are clamped to its border (constant residual, zero gradient), so the solver keeps going
 // and the chi-square test decides. Huber delta and outlier threshold as in PhotometricPoseFactor.
