@@ -49,14 +49,17 @@ void validate(const BAProblem& problem) {
       require(problem.keyframes.count(kf) != 0, ctx, f + " refers to unknown keyframe " + std::to_string(kf));
     for (const double* block : problem.factors[i]->landmarkBlocks())
       require(block != nullptr, ctx, f + " has a null landmark block");
+    for (const double* block : problem.factors[i]->sharedBlocks())
+      require(block != nullptr, ctx, f + " has a null shared block");
   }
 }
 
-/// Parameter blocks of a factor at the current state: its keyframes' poses, then its landmark blocks.
+/// Parameter blocks of a factor at the current state: its keyframes' poses, its landmark blocks, its shared blocks.
 std::vector<double*> factorBlocks(const BAFactor& f, const std::map<KeyFrameId, double*>& poses) {
   std::vector<double*> blocks;
   for (KeyFrameId kf : f.keyframes()) blocks.push_back(poses.at(kf));
   for (double* b : f.landmarkBlocks()) blocks.push_back(b);
+  for (double* b : f.sharedBlocks()) blocks.push_back(b);
   return blocks;
 }
 
@@ -133,6 +136,7 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
   problemOptions.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem ceresProblem(problemOptions);
   std::vector<double*> factorLandmarks;  ///< distinct landmark blocks of the factors, in first-use order
+  std::vector<double*> factorShared;     ///< distinct shared blocks of the factors
   residualBlocks = 0;
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     if (excluded[i]) continue;
@@ -162,6 +166,9 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
       if (ceres::Manifold* m = f.newLandmarkManifold(b)) ceresProblem.SetManifold(landmark[b], m);
       if (f.landmarkFixed()) ceresProblem.SetParameterBlockConstant(landmark[b]);
     }
+    for (double* shared : f.sharedBlocks())
+      if (std::find(factorShared.begin(), factorShared.end(), shared) == factorShared.end())
+        factorShared.push_back(shared);
     ++residualBlocks;
   }
   ceres::Solver::Summary summary;
@@ -181,6 +188,7 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
     ordering->AddElementToGroup(rho, 0);
   }
   for (double* block : factorLandmarks) ordering->AddElementToGroup(block, 0);
+  for (double* block : factorShared) ordering->AddElementToGroup(block, 1);  // with the poses, not eliminated
 
   ceres::Solver::Options options;
   options.linear_solver_type = params.linearSolver == "dense_schur" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;

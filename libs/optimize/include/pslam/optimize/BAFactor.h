@@ -6,6 +6,10 @@
 // the keyframes it involves (PoseParameterization.h) followed by its landmark's own parameter blocks, which
 // the factor owns and Ceres updates in place. Landmark blocks are eliminated in the Schur complement with
 // the inverse depths; each factor has its own Huber delta (first pass) and chi-square outlier test.
+// Parameters shared by the landmarks of many factors -- per-keyframe quantities such as the affine brightness
+// (a, b) of a direct point's host and target frames (§3.2.2) -- are sharedBlocks(): they follow the landmark
+// blocks and stay with the poses in the Schur complement (an eliminated block may not share a residual with
+// another eliminated block, so they cannot be landmark blocks).
 #include <string>
 #include <vector>
 
@@ -26,8 +30,11 @@ class BAFactor {
   /// The landmark's parameter blocks that follow the poses, owned by the factor (several factors of one
   /// landmark return the same pointers). Updated in place by the optimizer.
   virtual std::vector<double*> landmarkBlocks() const = 0;
-  /// A new cost function (Ceres takes ownership) whose parameter blocks are keyframes() then landmarkBlocks(),
-  /// with a whitened residual.
+  /// Free blocks shared with other landmarks' factors (e.g. a keyframe's affine brightness, 2 doubles), owned
+  /// outside the factor and updated in place; not eliminated in the Schur complement. Default: none.
+  virtual std::vector<double*> sharedBlocks() const { return {}; }
+  /// A new cost function (Ceres takes ownership) whose parameter blocks are keyframes() then landmarkBlocks()
+  /// then sharedBlocks(), with a whitened residual.
   virtual ceres::CostFunction* newCostFunction() const = 0;
   /// Manifold of landmark block `i` (Ceres takes ownership), or null for a Euclidean block.
   virtual ceres::Manifold* newLandmarkManifold(std::size_t i) const { return nullptr; }
