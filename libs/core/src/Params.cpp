@@ -1,5 +1,6 @@
 #include "pslam/core/Params.h"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <filesystem>

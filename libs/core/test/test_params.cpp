@@ -113,6 +113,9 @@ struct Config {
 
 }  // namespace demo
 
+PSLAM_DEFINE_PARAMS(demo::Demo)
+PSLAM_DEFINE_PARAMS(demo::Duplicate)
+
 namespace {
 
 std::string loadError(const std::string& ini, const std::string& section = "Demo") {

@@ -13,8 +13,9 @@
 //     }
 //     PSLAM_PARAMS("ORB")
 //   };
+//   PSLAM_DEFINE_PARAMS(OrbParams)   // in one .cpp
 //
-// PSLAM_PARAMS(section) adds, all driven by that one list:
+// PSLAM_PARAMS(section) + PSLAM_DEFINE_PARAMS(Type) add, all driven by that one list:
 //   loadFromConfigFile(cfg, section = "ORB")  strict parsing of the keys present (absent keys keep their
 //                                             value), unknown keys rejected naming the closest valid key,
 //                                             then check();
@@ -40,14 +41,12 @@
 // must be >= 3`), `[Section] key: unknown key (did you mean maxLocalKeyFrames?)`, `[Sectoin]: unknown section
 // (did you mean Section?)`. readConfigText() + applyOverrides() + withSource() put the file name (or the
 // override text) in front: `config/slam/kitti.ini: [Tracking] ...`.
-#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
 #include <limits>
 #include <map>
 #include <optional>
-#include <set>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -489,14 +488,20 @@ void withSource(const std::string& path, const std::vector<std::string>& overrid
 /// A nested struct whose keys are `member.<field>` (see Params.h: only where leaf names collide).
 #define PSLAM_NESTED(v, member) (v).nested(#member, member)
 
-/// Inside a struct with visitFields(): loadFromConfigFile / saveToConfigFile (default section `section`) and
-/// check() (errors name `section`), all from the field list.
+/// Inside a struct with visitFields(): declares loadFromConfigFile / saveToConfigFile (default section
+/// `section`) and check() (errors name `section`). PSLAM_DEFINE_PARAMS(Type) in one .cpp defines them from the
+/// field list (so the visitors are instantiated once, not in every file that includes the header).
 #define PSLAM_PARAMS(section)                                                                                  \
   static constexpr const char* kSection = section;                                                             \
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& sectionName = kSection) { \
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& sectionName = kSection); \
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& sectionName = kSection) const;  \
+  void check() const;
+
+#define PSLAM_DEFINE_PARAMS(Type)                                                                               \
+  void Type::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& sectionName) {    \
     ::pslam::params::load(*this, cfg, sectionName);                                                            \
   }                                                                                                            \
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& sectionName = kSection) const { \
+  void Type::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& sectionName) const {      \
     ::pslam::params::save(*this, cfg, sectionName);                                                            \
   }                                                                                                            \
-  void check() const { ::pslam::params::check(*this, kSection); }
+  void Type::check() const { ::pslam::params::check(*this, kSection); }
