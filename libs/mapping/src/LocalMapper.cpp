@@ -81,15 +81,15 @@ struct LocalMapper::Impl {
 LocalMapper::LocalMapper(map::Map& map, const LocalMappingParams& params)
     : map_(map), params_(params), impl_(std::make_unique<Impl>()) {
   params_.check();
-  impl_->keypointModel = landmarks::KeypointModel(params_.keypointModel);
-  impl_->policy = landmarks::makeMapPointPolicy(params_.pointPolicy, impl_->keypointModel);
+  impl_->keypointModel = landmarks::KeypointModel(params_.pointModel.keypoint);
+  impl_->policy = landmarks::makeMapPointPolicy(params_.pointModel.policy, impl_->keypointModel);
 }
 
 LocalMapper::~LocalMapper() = default;
 
 void LocalMapper::reset() { recent_.clear(); }
 
-landmarks::MapPointModel LocalMapper::model() const { return params_.pointPolicy.model; }
+landmarks::MapPointModel LocalMapper::model() const { return params_.pointModel.policy.model; }
 
 namespace {
 /// SVO's initial seed spread: the whole inverse-depth range is +-3 sigma.
@@ -156,7 +156,7 @@ static bool updateLandmarkState(map::Map& map, const landmarks::KeypointModel& m
                                    ? 1.0
                                    : landmarks::matchingAccuracyFromDescriptors(
                                          p.descriptor, kf.descriptors.row(static_cast<int>(k)),
-                                         params.matchingAccuracy.hammingMaxDistance);
+                                         params.pointModel.matching.hammingMaxDistance);
           const double d = 1.0 / X_anchor.z();
           if (!kf.semanticProbabilities.empty()) {
             const auto& c = kf.semanticProbabilities.at(k);
@@ -215,7 +215,7 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
       continue;
     }
     // ORB-SLAM: a point that survived three keyframes leaves probation.
-    if (current - record.counters.firstKeyframeId >= params_.pointPolicy.observationWindow + 1) continue;
+    if (current - record.counters.firstKeyframeId >= params_.pointModel.policy.observationWindow + 1) continue;
     stillRecent.push_back(id);
   }
   recent_ = std::move(stillRecent);
@@ -378,7 +378,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
                                                                  kf1.camera.fx, params_.depthPixelNoise)
                                    : landmarks::DepthUncertainty{};
         const double variance = tau.valid && tau.tau2InverseDepth() > 0.0 ? tau.tau2InverseDepth()
-                                                                          : initialVariance(params_.keypointModel);
+                                                                          : initialVariance(params_.pointModel.keypoint);
         landmarks::KeypointState state = impl_->keypointModel.initialize(p.inverseDepthAlongZ(), variance);
         if (!kf1.semanticProbabilities.empty()) {
           const auto& c1 = kf1.semanticProbabilities.at(m.i1);
@@ -388,7 +388,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
           const auto& c2 = kf2.semanticProbabilities.at(m.i2);
           const double alpha = landmarks::matchingAccuracyFromDescriptors(
               kf1.descriptors.row(static_cast<int>(m.i1)), kf2.descriptors.row(static_cast<int>(m.i2)),
-              params_.matchingAccuracy.hammingMaxDistance);
+              params_.pointModel.matching.hammingMaxDistance);
           impl_->keypointModel.addSemanticObservation(state, {c2[0], c2[1], c2[2]}, alpha);
         }
         p.landmarkState = encodeKeypointState(state);
@@ -530,10 +530,7 @@ optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId
 // ------------------------------------------------------------------------------------ 6. KeyFrameCulling
 
 int LocalMapper::cullKeyFrames(KeyFrameId kfId) {
-  map::KeyFrameCullingParams culling;
-  culling.redundantFraction = params_.redundantFraction;
-  culling.redundantMinObservers = params_.redundantMinObservers;
-  return map::cullRedundantKeyFrames(map_, kfId, culling);
+  return map::cullRedundantKeyFrames(map_, kfId, params_.culling);
 }
 
 // ------------------------------------------------------------------------------------ all steps
