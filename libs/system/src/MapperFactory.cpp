@@ -43,10 +43,10 @@ class MappingLibraryMapper : public KeyFrameMapper {
 std::unique_ptr<KeyFrameMapper> makeKeyFrameMapper(const std::string& which, map::Map& map,
                                                    const mapping::LocalMappingParams& params) {
   if (which == "builtin")
-    throw Error("[System] localMapper: 'builtin' was merged into libs/mapping; use localMapper = mapping and "
+    throw Error("makeKeyFrameMapper: 'builtin' was merged into libs/mapping; use mapping with "
                 "[LocalMapping] fusionDistanceBand = 0 for its fusion gate");
   if (which != "auto" && which != "mapping")
-    throw Error("[System] localMapper: unknown value '" + which + "' (auto | mapping)");
+    throw Error("makeKeyFrameMapper: unknown mapper '" + which + "' (auto | mapping)");
   return std::make_unique<MappingLibraryMapper>(map, params);
 }
 

@@ -68,7 +68,7 @@ SlamRunSummary SlamRunApp::run() {
   require(options_.last < 0 || options_.last >= static_cast<long long>(options_.first), "slam-run",
           "--last " + std::to_string(options_.last) + " is before --first " + std::to_string(options_.first));
   SlamParams params = loadSlamParams(options_.config.string());
-  if (options_.threaded) params.threaded = true;
+  if (options_.threaded) params.system.threaded = true;
   require(std::filesystem::is_regular_file(options_.rawlog), options_.rawlog.string(), "rawlog not found");
 
   const std::size_t total = datasets::RawlogReader::countFrames(options_.rawlog);
@@ -102,7 +102,7 @@ SlamRunSummary SlamRunApp::run() {
       require(camera.width == input.image.cols && camera.height == input.image.rows, ctx,
               "intrinsics resolution " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                   " differs from the image " + std::to_string(input.image.cols) + "x" + std::to_string(input.image.rows));
-      slam = std::make_unique<SlamSystem>(params, camera, options_.seed, params.threaded);
+      slam = std::make_unique<SlamSystem>(params, camera, options_.seed, params.system.threaded);
     }
     require(input.image.cols == camera.width && input.image.rows == camera.height, ctx,
             "image size changed to " + std::to_string(input.image.cols) + "x" + std::to_string(input.image.rows) +
@@ -125,7 +125,7 @@ SlamRunSummary SlamRunApp::run() {
       ++sum.framesTracked;
       Eigen::Isometry3d T_cam_ref = Eigen::Isometry3d::Identity();
       map::KeyFrameId ref = r.referenceKeyFrame;
-      if (!params.threaded && ref != map::kNoKeyFrame && slam->map().hasKeyFrame(ref))
+      if (!params.system.threaded && ref != map::kNoKeyFrame && slam->map().hasKeyFrame(ref))
         T_cam_ref = r.T_cam_world * slam->map().keyFrame(ref).T_world_cam();
       else
         ref = map::kNoKeyFrame;  // threaded: the keyframe pose may change concurrently; keep the tracked pose
@@ -171,7 +171,7 @@ SlamRunSummary SlamRunApp::run() {
   report["config_file"] = options_.config.string();
   report["config"] = params.toIniText();
   report["seed"] = options_.seed;
-  report["mode"] = params.threaded ? "threaded" : "sequential";
+  report["mode"] = params.system.threaded ? "threaded" : "sequential";
   report["local_mapper"] = slam ? slam->mapperName() : "";
   if (slam) report["local_mapper_config"] = slam->mapperConfig();
   report["first"] = options_.first;

@@ -20,10 +20,11 @@ SlamSystem::SlamSystem(const SlamParams& params, const geometry::PinholeCamera& 
       threaded_(threaded) {
   params_.check();
   params_.mapping.ba = params_.bundleAdjustment;
+  params_.mapping.pointModel = params_.pointModel;
   tracker_ = std::make_unique<tracking::Tracker>(
       map_, camera_, params_.tracking, params_.initializer, params_.bundleAdjustment,
       std::make_unique<tracking::FullPoseSolver>(params_.poseOptimization), seed);
-  mapper_ = makeKeyFrameMapper(params_.localMapper, map_, params_.mapping);
+  mapper_ = makeKeyFrameMapper("mapping", map_, params_.mapping);
   mapperName_ = mapper_->name();
   if (threaded_) worker_ = std::thread([this] { mappingLoop(); });
 }

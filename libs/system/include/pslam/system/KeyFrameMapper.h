@@ -37,9 +37,10 @@ class KeyFrameMapper {
 
 
 /// The local mapper of a run: libs/mapping's LocalMapper (ORB-SLAM LocalMapping with the map-point models of
-/// chapter 3) configured by `params` ([LocalMapping] keys; `params.ba` from [BundleAdjustment]). `which` is
-/// [System] localMapper: "mapping" or "auto" (the same). The former "builtin" mapper was merged into libs/mapping
-/// on 2026-11-30 (its fusion gate is `fusionDistanceBand = 0`); asking for it throws pslam::Error saying so.
+/// chapter 3) configured by `params` ([LocalMapping] keys; `params.ba` from [BundleAdjustment], `params.pointModel`
+/// from [PointModel]). `which`: "mapping" or "auto" (the same; there is one mapper). The former "builtin" mapper
+/// was merged into libs/mapping on 2026-11-30 (its fusion gate is `fusionDistanceBand = 0`); asking for it throws
+/// pslam::Error saying so.
 std::unique_ptr<KeyFrameMapper> makeKeyFrameMapper(const std::string& which, map::Map& map,
                                                    const mapping::LocalMappingParams& params);
 
