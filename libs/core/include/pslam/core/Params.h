@@ -251,36 +251,40 @@ struct FieldInfo {
 
 namespace detail {
 
-/// Prefix handling shared by the visitors (flat / nested groups).
-class KeyPath {
- protected:
-  std::string key(const char* name) const { return prefix_ + name; }
-  template <class S, class V>
-  void nestedIn(const char* name, S& sub, V& self) {
+/// What every visitor does with groups: flat() recurses, nested() puts `name.` in front of the keys,
+/// fromSection() skips the struct (Checker checks it under its own section).
+template <class Derived>
+class Visitor {
+ public:
+  template <class S>
+  void flat(S& sub) {
+    sub.visitFields(self());
+  }
+  template <class S>
+  void nested(const char* name, S& sub) {
     const std::string saved = prefix_;
     prefix_ += std::string(name) + ".";
-    sub.visitFields(self);
+    sub.visitFields(self());
     prefix_ = saved;
   }
+  template <class S>
+  void fromSection(const char*, S&) {}
+
+ protected:
+  std::string key(const char* name) const { return prefix_ + name; }
 
  private:
+  Derived& self() { return static_cast<Derived&>(*this); }
   std::string prefix_;
 };
 
 /// Collects the keys (and their rows for describe()); a duplicate key is a programming error.
-class KeyCollector : public KeyPath {
+class KeyCollector : public Visitor<KeyCollector> {
  public:
   template <class T, class R>
   void field(const char* name, T& value, const R& rule, const char* doc) {
     add({key(name), Codec<T>::format(value), rule.text(), doc});
   }
-  template <class S>
-  void flat(S& sub) { sub.visitFields(*this); }
-  template <class S>
-  void nested(const char* name, S& sub) { nestedIn(name, sub, *this); }
-  template <class S>
-  void fromSection(const char*, S&) {}
-
   const std::vector<FieldInfo>& rows() const { return rows_; }
   std::vector<std::string> keys() const;
 
@@ -294,7 +298,7 @@ class KeyCollector : public KeyPath {
 std::map<std::string, std::string> readSection(const mrpt::config::CConfigFileBase& cfg, const std::string& section,
                                                const std::vector<std::string>& known);
 
-class Loader : public KeyPath {
+class Loader : public Visitor<Loader> {
  public:
   Loader(const std::map<std::string, std::string>& present, const std::string& section)
       : present_(present), section_(section) {}
@@ -307,48 +311,32 @@ class Loader : public KeyPath {
     if (auto why = Codec<T>::parse(it->second, parsed)) throw ParamError(section_, k, it->second, *why);
     value = parsed;
   }
-  template <class S>
-  void flat(S& sub) { sub.visitFields(*this); }
-  template <class S>
-  void nested(const char* name, S& sub) { nestedIn(name, sub, *this); }
-  template <class S>
-  void fromSection(const char*, S&) {}
 
  private:
   const std::map<std::string, std::string>& present_;
   const std::string& section_;
 };
 
-class Saver : public KeyPath {
+class Saver : public Visitor<Saver> {
  public:
   Saver(mrpt::config::CConfigFileBase& cfg, const std::string& section) : cfg_(cfg), section_(section) {}
   template <class T, class R>
   void field(const char* name, T& value, const R&, const char*) {
     cfg_.write(section_, key(name), Codec<T>::format(value));
   }
-  template <class S>
-  void flat(S& sub) { sub.visitFields(*this); }
-  template <class S>
-  void nested(const char* name, S& sub) { nestedIn(name, sub, *this); }
-  template <class S>
-  void fromSection(const char*, S&) {}
 
  private:
   mrpt::config::CConfigFileBase& cfg_;
   const std::string& section_;
 };
 
-class Checker : public KeyPath {
+class Checker : public Visitor<Checker> {
  public:
   explicit Checker(const std::string& section) : section_(section) {}
   template <class T, class R>
   void field(const char* name, T& value, const R& rule, const char*) {
     if (auto why = rule(value)) throw ParamError(section_, key(name), Codec<T>::format(value), *why);
   }
-  template <class S>
-  void flat(S& sub) { sub.visitFields(*this); }
-  template <class S>
-  void nested(const char* name, S& sub) { nestedIn(name, sub, *this); }
   template <class S>
   void fromSection(const char* section, S& sub) {
     const std::string s = section;
