@@ -470,7 +470,7 @@ TEST(SystemFacade, PoseSolverAndInitializerAreChosenByConfig) {
   });
   // The shipped solver and initializer, reached through the same factories, give the reference run.
   system::System reference = makeSystem();
-  system::System swapped = makeSystem({"System.poseSolver=counting", "System.mapInitializer=counting"});
+  system::System swapped = makeSystem({"System.poseSolver=counting", "System.initializer=counting"});
   datasets::RawlogReader reader(roomRawlog());
   datasets::Frame f;
   while (reader.next(f) && f.index < 30) {

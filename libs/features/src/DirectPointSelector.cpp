@@ -10,34 +10,7 @@
 
 namespace pslam::features {
 
-void DirectSelectorParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  targetPoints = cfg.read_int(section, "targetPoints", targetPoints);
-  initialBlockSize = cfg.read_int(section, "initialBlockSize", initialBlockSize);
-  thresholdOffset = cfg.read_float(section, "thresholdOffset", thresholdOffset);
-  thresholdDecay = cfg.read_float(section, "thresholdDecay", thresholdDecay);
-  adaptIterations = cfg.read_int(section, "adaptIterations", adaptIterations);
-  border = cfg.read_int(section, "border", border);
-  check();
-}
-
-void DirectSelectorParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "targetPoints", targetPoints);
-  cfg.write(section, "initialBlockSize", initialBlockSize);
-  cfg.write(section, "thresholdOffset", thresholdOffset);
-  cfg.write(section, "thresholdDecay", thresholdDecay);
-  cfg.write(section, "adaptIterations", adaptIterations);
-  cfg.write(section, "border", border);
-}
-
-void DirectSelectorParams::check() const {
-  const std::string ctx = "DirectSelectorParams";
-  require(targetPoints > 0, ctx, "targetPoints must be > 0");
-  require(initialBlockSize >= 0, ctx, "initialBlockSize must be >= 0 (0 = automatic)");
-  require(std::isfinite(thresholdOffset) && thresholdOffset >= 0, ctx, "thresholdOffset must be finite and >= 0");
-  require(thresholdDecay > 0 && thresholdDecay <= 1, ctx, "thresholdDecay must be in (0, 1]");
-  require(adaptIterations >= 0, ctx, "adaptIterations must be >= 0");
-  require(border >= 1, ctx, "border must be >= 1");
-}
+PSLAM_DEFINE_PARAMS(DirectSelectorParams)
 
 DirectPointSelector::DirectPointSelector(const DirectSelectorParams& params) : params_(params) { params_.check(); }
 

@@ -12,33 +12,7 @@
 
 namespace pslam::geometry {
 
-void PnpParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  ransacIterations = cfg.read_int(section, "ransacIterations", ransacIterations);
-  sigma = cfg.read_double(section, "sigma", sigma);
-  chi2Threshold = cfg.read_double(section, "chi2Threshold", chi2Threshold);
-  confidence = cfg.read_double(section, "confidence", confidence);
-  minInliers = cfg.read_int(section, "minInliers", minInliers);
-  refine = cfg.read_bool(section, "refine", refine);
-  check();
-}
-
-void PnpParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "ransacIterations", ransacIterations);
-  cfg.write(section, "sigma", sigma);
-  cfg.write(section, "chi2Threshold", chi2Threshold);
-  cfg.write(section, "confidence", confidence);
-  cfg.write(section, "minInliers", minInliers);
-  cfg.write(section, "refine", refine);
-}
-
-void PnpParams::check() const {
-  auto fail = [](const std::string& key, const std::string& what) { throw Error("PnpParams: " + key + " " + what); };
-  if (ransacIterations < 1) fail("ransacIterations", "must be >= 1");
-  if (!(sigma > 0.0) || !std::isfinite(sigma)) fail("sigma", "must be a finite value > 0");
-  if (!(chi2Threshold > 0.0) || !std::isfinite(chi2Threshold)) fail("chi2Threshold", "must be a finite value > 0");
-  if (!(confidence > 0.0 && confidence < 1.0)) fail("confidence", "must be in (0, 1)");
-  if (minInliers < 4) fail("minInliers", "must be >= 4 (a pose has 6 degrees of freedom)");
-}
+PSLAM_DEFINE_PARAMS(PnpParams)
 
 const char* toString(PnpFailure failure) {
   switch (failure) {

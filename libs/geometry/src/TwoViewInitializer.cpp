@@ -320,52 +320,7 @@ bool refineRelativePose(const Points& x1, const Points& x2, const std::vector<bo
 
 // ---- TwoViewParams
 
-void TwoViewParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  ransacIterations = cfg.read_int(section, "ransacIterations", ransacIterations);
-  sigma = cfg.read_double(section, "sigma", sigma);
-  homographyRatioThreshold = cfg.read_double(section, "homographyRatioThreshold", homographyRatioThreshold);
-  minParallaxDeg = cfg.read_double(section, "minParallaxDeg", minParallaxDeg);
-  minTriangulated = cfg.read_int(section, "minTriangulated", minTriangulated);
-  minTriangulatedFraction = cfg.read_double(section, "minTriangulatedFraction", minTriangulatedFraction);
-  similarSolutionFractionF = cfg.read_double(section, "similarSolutionFractionF", similarSolutionFractionF);
-  secondBestFractionH = cfg.read_double(section, "secondBestFractionH", secondBestFractionH);
-  parallel = cfg.read_bool(section, "parallel", parallel);
-  refitIterations = cfg.read_int(section, "refitIterations", refitIterations);
-  refinePose = cfg.read_bool(section, "refinePose", refinePose);
-  check();
-}
-
-void TwoViewParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "ransacIterations", ransacIterations);
-  cfg.write(section, "sigma", sigma);
-  cfg.write(section, "homographyRatioThreshold", homographyRatioThreshold);
-  cfg.write(section, "minParallaxDeg", minParallaxDeg);
-  cfg.write(section, "minTriangulated", minTriangulated);
-  cfg.write(section, "minTriangulatedFraction", minTriangulatedFraction);
-  cfg.write(section, "similarSolutionFractionF", similarSolutionFractionF);
-  cfg.write(section, "secondBestFractionH", secondBestFractionH);
-  cfg.write(section, "parallel", parallel);
-  cfg.write(section, "refitIterations", refitIterations);
-  cfg.write(section, "refinePose", refinePose);
-}
-
-void TwoViewParams::check() const {
-  auto fail = [](const std::string& key, const std::string& what) {
-    throw Error("TwoViewParams: " + key + " " + what);
-  };
-  if (ransacIterations < 1) fail("ransacIterations", "must be >= 1");
-  if (!(sigma > 0.0) || !std::isfinite(sigma)) fail("sigma", "must be a finite value > 0");
-  if (!(homographyRatioThreshold >= 0.0 && homographyRatioThreshold <= 1.0))
-    fail("homographyRatioThreshold", "must be in [0, 1]");
-  if (!(minParallaxDeg >= 0.0 && minParallaxDeg < 90.0)) fail("minParallaxDeg", "must be in [0, 90)");
-  if (minTriangulated < 1) fail("minTriangulated", "must be >= 1");
-  if (!(minTriangulatedFraction >= 0.0 && minTriangulatedFraction <= 1.0))
-    fail("minTriangulatedFraction", "must be in [0, 1]");
-  if (!(similarSolutionFractionF > 0.0 && similarSolutionFractionF <= 1.0))
-    fail("similarSolutionFractionF", "must be in (0, 1]");
-  if (!(secondBestFractionH > 0.0 && secondBestFractionH <= 1.0)) fail("secondBestFractionH", "must be in (0, 1]");
-  if (refitIterations < 0) fail("refitIterations", "must be >= 0");
-}
+PSLAM_DEFINE_PARAMS(TwoViewParams)
 
 const char* toString(TwoViewModel model) {
   switch (model) {

@@ -2,39 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <sstream>
-
-#include <mrpt/config/CConfigFileBase.h>
 
 #include "pslam/core/Error.h"
 
 namespace pslam::landmarks {
 namespace {
-
-constexpr const char* kClassNames[kNumSemanticClasses] = {"static", "dynamic", "invalid"};
-
-// MRPT's read_double goes through atof; a count may be written "inf" (Table 3.1), so parse it ourselves and
-// name the key when the text is not a number.
-double readCount(const mrpt::config::CConfigFileBase& cfg, const std::string& section, const std::string& key,
-                 double fallback) {
-  // read_string keeps inline comments ("5  ; Table 3.1"): the first word is the value.
-  const std::string text = cfg.read_string_first_word(section, key, "");
-  if (text.empty()) return fallback;
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0' || std::isnan(value))
-    throw Error("[" + section + "] " + key + ": not a number: '" + text + "'");
-  return value;
-}
-
-std::string formatCount(double v) {
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
 
 double logNormalPdf(double x, double mean, double variance) {
   const double r = x - mean;
@@ -52,56 +24,7 @@ void requireAccuracy(double alpha) {
 
 }  // namespace
 
-void KeypointModelParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg,
-                                             const std::string& section) {
-  initialCount = cfg.read_double(section, "initialCount", initialCount);
-  psiMin = cfg.read_double(section, "psiMin", psiMin);
-  for (int k = 0; k < kNumSemanticClasses; ++k) {
-    priorA[k] = readCount(cfg, section, std::string("A_") + kClassNames[k], priorA[k]);
-    priorB[k] = readCount(cfg, section, std::string("B_") + kClassNames[k], priorB[k]);
-  }
-  vetoProbability = cfg.read_double(section, "vetoProbability", vetoProbability);
-  inverseDepthMin = cfg.read_double(section, "inverseDepthMin", inverseDepthMin);
-  inverseDepthMax = cfg.read_double(section, "inverseDepthMax", inverseDepthMax);
-  probabilityFloor = cfg.read_double(section, "probabilityFloor", probabilityFloor);
-  minCount = cfg.read_double(section, "minCount", minCount);
-  check();
-}
-
-void KeypointModelParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "initialCount", initialCount);
-  cfg.write(section, "psiMin", psiMin);
-  for (int k = 0; k < kNumSemanticClasses; ++k) {
-    cfg.write(section, std::string("A_") + kClassNames[k], formatCount(priorA[k]));
-    cfg.write(section, std::string("B_") + kClassNames[k], formatCount(priorB[k]));
-  }
-  cfg.write(section, "vetoProbability", vetoProbability);
-  cfg.write(section, "inverseDepthMin", inverseDepthMin);
-  cfg.write(section, "inverseDepthMax", inverseDepthMax);
-  cfg.write(section, "probabilityFloor", probabilityFloor);
-  cfg.write(section, "minCount", minCount);
-}
-
-void KeypointModelParams::check() const {
-  auto fail = [](const std::string& key, const std::string& why) {
-    throw Error("KeypointModelParams: " + key + " " + why);
-  };
-  if (!(std::isfinite(initialCount) && initialCount > 0)) fail("initialCount", "must be finite and > 0");
-  if (!(psiMin > 0 && psiMin < 1)) fail("psiMin", "must be in (0, 1)");
-  for (int k = 0; k < kNumSemanticClasses; ++k) {
-    const std::string a = std::string("A_") + kClassNames[k], b = std::string("B_") + kClassNames[k];
-    // A_k = inf would need an "always inlier" rule symmetric to the veto; Table 3.1 has none, so refuse it.
-    if (!(std::isfinite(priorA[k]) && priorA[k] >= 0)) fail(a, "must be finite and >= 0");
-    if (!(priorB[k] >= 0) || std::isnan(priorB[k])) fail(b, "must be >= 0 (inf allowed)");
-  }
-  if (!(vetoProbability > 0 && vetoProbability <= 1)) fail("vetoProbability", "must be in (0, 1]");
-  if (!(std::isfinite(inverseDepthMin) && inverseDepthMin >= 0)) fail("inverseDepthMin", "must be finite and >= 0");
-  if (!(std::isfinite(inverseDepthMax) && inverseDepthMax > inverseDepthMin))
-    fail("inverseDepthMax", "must be finite and > inverseDepthMin");
-  if (!(probabilityFloor > 0 && probabilityFloor < 1.0 / kNumSemanticClasses))
-    fail("probabilityFloor", "must be in (0, 1/3)");
-  if (!(minCount > 0 && minCount < initialCount)) fail("minCount", "must be in (0, initialCount)");
-}
+PSLAM_DEFINE_PARAMS(KeypointModelParams)
 
 KeypointModel::KeypointModel(const KeypointModelParams& params) : params_(params) { params_.check(); }
 

@@ -1,62 +1,18 @@
 #include "pslam/landmarks/MapPointPolicy.h"
 
-#include <algorithm>
-#include <cctype>
 #include <cmath>
-
-#include <mrpt/config/CConfigFileBase.h>
 
 #include "pslam/core/Error.h"
 
 namespace pslam::landmarks {
 
 MapPointModel parseMapPointModel(const std::string& text) {
-  std::string t = text;
-  std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (t == "heuristic") return MapPointModel::Heuristic;
-  if (t == "masking") return MapPointModel::Masking;
-  if (t == "probabilistic") return MapPointModel::Probabilistic;
-  throw Error("map point model '" + text + "' unknown (expected heuristic, masking or probabilistic)");
+  return params::parseEnum<MapPointModel>(text, "map point model");
 }
 
-std::string toString(MapPointModel model) {
-  switch (model) {
-    case MapPointModel::Heuristic: return "heuristic";
-    case MapPointModel::Masking: return "masking";
-    case MapPointModel::Probabilistic: return "probabilistic";
-  }
-  return "unknown";
-}
+std::string toString(MapPointModel model) { return params::enumName(model); }
 
-void MapPointPolicyParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  model = parseMapPointModel(cfg.read_string_first_word(section, "model", toString(model)));
-  minFoundRatio = cfg.read_double(section, "minFoundRatio", minFoundRatio);
-  minObservations = static_cast<std::uint32_t>(cfg.read_int(section, "minObservations", int(minObservations)));
-  observationWindow = cfg.read_int(section, "observationWindow", int(observationWindow));
-  maskingDynamicThreshold = cfg.read_double(section, "maskingDynamicThreshold", maskingDynamicThreshold);
-  cullInlierRatio = cfg.read_double(section, "cullInlierRatio", cullInlierRatio);
-  cullMinDepthUpdates = static_cast<std::uint32_t>(cfg.read_int(section, "cullMinDepthUpdates", int(cullMinDepthUpdates)));
-  check();
-}
-
-void MapPointPolicyParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "model", toString(model));
-  cfg.write(section, "minFoundRatio", minFoundRatio);
-  cfg.write(section, "minObservations", int(minObservations));
-  cfg.write(section, "observationWindow", int(observationWindow));
-  cfg.write(section, "maskingDynamicThreshold", maskingDynamicThreshold);
-  cfg.write(section, "cullInlierRatio", cullInlierRatio);
-  cfg.write(section, "cullMinDepthUpdates", int(cullMinDepthUpdates));
-}
-
-void MapPointPolicyParams::check() const {
-  if (!(minFoundRatio >= 0 && minFoundRatio <= 1)) throw Error("MapPointPolicyParams: minFoundRatio must be in [0, 1]");
-  if (observationWindow < 0) throw Error("MapPointPolicyParams: observationWindow must be >= 0");
-  if (!(maskingDynamicThreshold >= 0 && maskingDynamicThreshold <= 1))
-    throw Error("MapPointPolicyParams: maskingDynamicThreshold must be in [0, 1]");
-  if (!(cullInlierRatio >= 0 && cullInlierRatio < 1))
-    throw Error("MapPointPolicyParams: cullInlierRatio must be in [0, 1)");
-}
+PSLAM_DEFINE_PARAMS(MapPointPolicyParams)
 
 bool orbSlamShouldCull(const HeuristicCounters& c, std::int64_t currentKeyframeId, const MapPointPolicyParams& p) {
   if (c.bad) return true;

@@ -3,31 +3,13 @@
 #include <algorithm>
 #include <cmath>
 
-#include <mrpt/config/CConfigFileBase.h>
 #include <opencv2/imgproc.hpp>
 
 #include "pslam/core/Error.h"
 
 namespace pslam::landmarks {
 
-void MatchingAccuracyParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg,
-                                                const std::string& section) {
-  hammingMaxDistance = cfg.read_double(section, "hammingMaxDistance", hammingMaxDistance);
-  photometricMaxSsd = cfg.read_double(section, "photometricMaxSsd", photometricMaxSsd);
-  check();
-}
-
-void MatchingAccuracyParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "hammingMaxDistance", hammingMaxDistance);
-  cfg.write(section, "photometricMaxSsd", photometricMaxSsd);
-}
-
-void MatchingAccuracyParams::check() const {
-  if (!(std::isfinite(hammingMaxDistance) && hammingMaxDistance > 0))
-    throw Error("MatchingAccuracyParams: hammingMaxDistance must be finite and > 0");
-  if (!(std::isfinite(photometricMaxSsd) && photometricMaxSsd > 0))
-    throw Error("MatchingAccuracyParams: photometricMaxSsd must be finite and > 0");
-}
+PSLAM_DEFINE_PARAMS(MatchingAccuracyParams)
 
 double matchingAccuracyFromHamming(double hammingDistance, double maxDistance) {
   if (!(hammingDistance >= 0)) throw Error("matchingAccuracyFromHamming: distance must be >= 0");

@@ -7,6 +7,7 @@
 
 #include "pslam/core/Error.h"
 #include "pslam/landmarks/MapPointPolicy.h"
+#include "pslam/landmarks/PointModel.h"
 #include "pslam/landmarks/MatchingAccuracy.h"
 
 using namespace pslam::landmarks;
@@ -20,12 +21,17 @@ TEST(MapPointModel, ParseAndPrintRoundTrip) {
 
 TEST(MapPointPolicy, ConfigSelectsTheModel) {
   mrpt::config::CConfigFileMemory cfg;
-  cfg.write("MapPoints", "model", "masking");
+  cfg.write("PointModel", "model", "masking");
   MapPointPolicyParams p;
-  p.loadFromConfigFile(cfg, "MapPoints");
+  p.loadFromConfigFile(cfg);
   EXPECT_EQ(makeMapPointPolicy(p, KeypointModel{})->model(), MapPointModel::Masking);
-  cfg.write("MapPoints", "model", "bogus");
-  EXPECT_THROW(p.loadFromConfigFile(cfg, "MapPoints"), pslam::Error);
+  cfg.write("PointModel", "model", "bogus");
+  try {
+    p.loadFromConfigFile(cfg);
+    FAIL() << "bogus model accepted";
+  } catch (const pslam::Error& e) {
+    EXPECT_STREQ(e.what(), "[PointModel] model = bogus: must be one of heuristic, masking, probabilistic");
+  }
 }
 
 TEST(MapPointPolicy, HeuristicFollowsOrbSlamCulling) {
@@ -68,11 +74,12 @@ TEST(MapPointPolicy, MaskingDeactivatesDynamicAndProbabilisticUsesInlierRatio) {
   EXPECT_FALSE(probabilistic->shouldCull(car, 0));
 }
 
-// The shipped config reproduces the defaults (Table 3.1, Table 3.2).
+// The shipped config reproduces the defaults (Table 3.1, Table 3.2), through the one [PointModel] section.
 TEST(MapPointPolicy, ShippedKeypointModelIniLoads) {
   mrpt::config::CConfigFile cfg(std::string(PRIORSLAM_SOURCE_DIR) + "/config/semantic/keypoint_model.ini");
-  KeypointModelParams k;
-  k.loadFromConfigFile(cfg, "KeypointModel");
+  PointModelParams pm;
+  pm.loadFromConfigFile(cfg);
+  const KeypointModelParams& k = pm.keypoint;
   const KeypointModelParams defaults;
   EXPECT_EQ(k.priorA, defaults.priorA);
   EXPECT_EQ(k.priorB[0], defaults.priorB[0]);
@@ -80,11 +87,36 @@ TEST(MapPointPolicy, ShippedKeypointModelIniLoads) {
   EXPECT_TRUE(std::isinf(k.priorB[2]));
   EXPECT_EQ(k.psiMin, 0.6);
   EXPECT_EQ(k.initialCount, defaults.initialCount);
-  MatchingAccuracyParams m;
-  m.loadFromConfigFile(cfg, "MatchingAccuracy");
-  EXPECT_EQ(m.hammingMaxDistance, 100);
-  MapPointPolicyParams p;
-  p.loadFromConfigFile(cfg, "MapPoints");
-  EXPECT_EQ(p.model, MapPointModel::Probabilistic);
-  EXPECT_EQ(p.maskingDynamicThreshold, 0.5);
+  EXPECT_EQ(pm.matching.hammingMaxDistance, 100);
+  EXPECT_EQ(pm.policy.model, MapPointModel::Probabilistic);
+  EXPECT_EQ(pm.policy.maskingDynamicThreshold, 0.5);
+}
+
+// [PointModel]: the three structs flattened into one section; SLAM's default model is heuristic.
+TEST(PointModelParams, OneSectionRoundTripAndHeuristicDefault) {
+  EXPECT_EQ(PointModelParams{}.policy.model, MapPointModel::Heuristic);
+  EXPECT_EQ(MapPointPolicyParams{}.model, MapPointModel::Probabilistic);
+  PointModelParams p;
+  p.policy.model = MapPointModel::Masking;
+  p.keypoint.priorB[1] = std::numeric_limits<double>::infinity();
+  p.keypoint.probabilityFloor = 1.0 / 510.0;
+  p.matching.photometricMaxSsd = 1234.5;
+  const std::string text = pslam::params::toIniText(p, "PointModel");
+  for (const char* key : {"model = masking", "minFoundRatio", "psiMin", "A_static", "B_dynamic = inf",
+                          "hammingMaxDistance", "photometricMaxSsd = 1234.5"})
+    EXPECT_NE(text.find(key), std::string::npos) << key << " in\n" << text;
+  mrpt::config::CConfigFileMemory cfg(text);
+  PointModelParams q;
+  q.loadFromConfigFile(cfg);
+  EXPECT_EQ(q.policy.model, MapPointModel::Masking);
+  EXPECT_TRUE(std::isinf(q.keypoint.priorB[1]));
+  EXPECT_EQ(q.keypoint.probabilityFloor, 1.0 / 510.0);
+  EXPECT_EQ(pslam::params::toIniText(q, "PointModel"), text);
+  mrpt::config::CConfigFileMemory typo("[PointModel]\npsiMn = 0.5\n");
+  try {
+    q.loadFromConfigFile(typo);
+    FAIL() << "typo accepted";
+  } catch (const pslam::Error& e) {
+    EXPECT_STREQ(e.what(), "[PointModel] psiMn: unknown key (did you mean psiMin?)");
+  }
 }

@@ -64,57 +64,7 @@ AxisStats supportInCone(const std::vector<Eigen::Vector3d>& normals, const Eigen
 }  // namespace
 
 // ------------------------------------------------------------------------------------------- parameters
-void ManhattanParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& c, const std::string& s) {
-  coneAngleDeg = c.read_double(s, "coneAngleDeg", coneAngleDeg);
-  kernelWidth = c.read_double(s, "kernelWidth", kernelWidth);
-  maxIterations = c.read_int(s, "maxIterations", maxIterations);
-  convergenceDeg = c.read_double(s, "convergenceDeg", convergenceDeg);
-  coarseConeAngleDeg = c.read_double(s, "coarseConeAngleDeg", coarseConeAngleDeg);
-  maxNormals = static_cast<std::size_t>(c.read_uint64_t(s, "maxNormals", maxNormals));
-  minAxisSupport = static_cast<std::size_t>(c.read_uint64_t(s, "minAxisSupport", minAxisSupport));
-  minAxisShare = c.read_double(s, "minAxisShare", minAxisShare);
-  maxAxisSpreadDeg = c.read_double(s, "maxAxisSpreadDeg", maxAxisSpreadDeg);
-  minObservedAxes = c.read_int(s, "minObservedAxes", minObservedAxes);
-  maxStepDeg = c.read_double(s, "maxStepDeg", maxStepDeg);
-  initSamples = c.read_int(s, "initSamples", initSamples);
-  initClusterDeg = c.read_double(s, "initClusterDeg", initClusterDeg);
-  seed = static_cast<unsigned>(c.read_uint64_t(s, "seed", seed));
-  check();
-}
-
-void ManhattanParams::saveToConfigFile(mrpt::config::CConfigFileBase& c, const std::string& s) const {
-  c.write(s, "coneAngleDeg", coneAngleDeg);
-  c.write(s, "kernelWidth", kernelWidth);
-  c.write(s, "maxIterations", maxIterations);
-  c.write(s, "convergenceDeg", convergenceDeg);
-  c.write(s, "coarseConeAngleDeg", coarseConeAngleDeg);
-  c.write(s, "maxNormals", static_cast<uint64_t>(maxNormals));
-  c.write(s, "minAxisSupport", static_cast<uint64_t>(minAxisSupport));
-  c.write(s, "minAxisShare", minAxisShare);
-  c.write(s, "maxAxisSpreadDeg", maxAxisSpreadDeg);
-  c.write(s, "minObservedAxes", minObservedAxes);
-  c.write(s, "maxStepDeg", maxStepDeg);
-  c.write(s, "initSamples", initSamples);
-  c.write(s, "initClusterDeg", initClusterDeg);
-  c.write(s, "seed", static_cast<uint64_t>(seed));
-}
-
-void ManhattanParams::check() const {
-  const std::string ctx = "ManhattanTracker";
-  require(coneAngleDeg > 0 && coneAngleDeg < 45, ctx, "coneAngleDeg must be in (0, 45)");
-  require(std::isfinite(kernelWidth) && kernelWidth >= 0, ctx, "kernelWidth must be >= 0");
-  require(maxIterations >= 1, ctx, "maxIterations must be >= 1");
-  require(convergenceDeg > 0, ctx, "convergenceDeg must be > 0");
-  require(coarseConeAngleDeg == 0 || (coarseConeAngleDeg >= coneAngleDeg && coarseConeAngleDeg < 45), ctx,
-          "coarseConeAngleDeg must be 0 or in [coneAngleDeg, 45)");
-  require(maxNormals >= 10, ctx, "maxNormals must be >= 10");
-  require(minAxisShare >= 0 && minAxisShare < 1, ctx, "minAxisShare must be in [0, 1)");
-  require(maxAxisSpreadDeg > 0, ctx, "maxAxisSpreadDeg must be > 0");
-  require(minObservedAxes == 2 || minObservedAxes == 3, ctx, "minObservedAxes must be 2 or 3");
-  require(maxStepDeg > 0 && maxStepDeg <= 45, ctx, "maxStepDeg must be in (0, 45]");
-  require(initSamples >= 1, ctx, "initSamples must be >= 1");
-  require(initClusterDeg > 0, ctx, "initClusterDeg must be > 0");
-}
+PSLAM_DEFINE_PARAMS(ManhattanParams)
 
 nlohmann::json ManhattanEstimate::toJson() const {
   nlohmann::json axesJson = nlohmann::json::array();

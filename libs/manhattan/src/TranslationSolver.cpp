@@ -114,30 +114,7 @@ void checkFinite(const Eigen::Matrix3d& R) {
 
 }  // namespace
 
-void TranslationRansacParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& c, const std::string& s) {
-  maxIterations = c.read_int(s, "maxIterations", maxIterations);
-  confidence = c.read_double(s, "confidence", confidence);
-  inlierThreshold = c.read_double(s, "inlierThreshold", inlierThreshold);
-  minInliers = static_cast<std::size_t>(c.read_uint64_t(s, "minInliers", minInliers));
-  seed = static_cast<unsigned>(c.read_uint64_t(s, "seed", seed));
-  check();
-}
-
-void TranslationRansacParams::saveToConfigFile(mrpt::config::CConfigFileBase& c, const std::string& s) const {
-  c.write(s, "maxIterations", maxIterations);
-  c.write(s, "confidence", confidence);
-  c.write(s, "inlierThreshold", inlierThreshold);
-  c.write(s, "minInliers", static_cast<uint64_t>(minInliers));
-  c.write(s, "seed", static_cast<uint64_t>(seed));
-}
-
-void TranslationRansacParams::check() const {
-  const std::string ctx = "TranslationRansac";
-  require(maxIterations >= 1, ctx, "maxIterations must be >= 1");
-  require(confidence > 0 && confidence < 1, ctx, "confidence must be in (0, 1)");
-  require(std::isfinite(inlierThreshold) && inlierThreshold > 0, ctx, "inlierThreshold must be > 0");
-  require(minInliers >= 2, ctx, "minInliers must be >= 2");
-}
+PSLAM_DEFINE_PARAMS(TranslationRansacParams)
 
 Eigen::Vector3d solveTranslationDirection(const std::vector<Eigen::Vector3d>& fp, const std::vector<Eigen::Vector3d>& fc,
                                           const Eigen::Matrix3d& R) {

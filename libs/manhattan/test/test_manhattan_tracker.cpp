@@ -1,13 +1,18 @@
 // Mean-shift Manhattan-frame tracker on synthetic normal sets with known ground-truth rotation.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <random>
 
 #include <Eigen/Geometry>
+#include <mrpt/config/CConfigFile.h>
 #include <mrpt/config/CConfigFileMemory.h>
 
 #include "pslam/core/Error.h"
+#include "pslam/manhattan/ManhattanEvalApp.h"
 #include "pslam/manhattan/ManhattanTracker.h"
+#include "pslam/priors/NormalSource.h"
+#include "pslam/priors/NormalsFromNetwork.h"
 
 using namespace pslam::manhattan;
 
@@ -171,11 +176,57 @@ TEST(ManhattanParams, LoadsFromIniAndRejectsBadValuesNamingTheKey) {
   EXPECT_DOUBLE_EQ(p.kernelWidth, 3.0);
   EXPECT_DOUBLE_EQ(ManhattanParams{}.coneAngleDeg, 10.0);  // Table 4.1 defaults
   EXPECT_DOUBLE_EQ(ManhattanParams{}.kernelWidth, 2.0);
-  cfg.write("ManhattanTracker", "coneAngleDeg", -1.0);
+  cfg.write("ManhattanTracker", "coneAngleDeg", "-1");
   try {
     p.loadFromConfigFile(cfg, "ManhattanTracker");
     FAIL() << "expected pslam::Error";
   } catch (const pslam::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("coneAngleDeg"), std::string::npos);
+    EXPECT_STREQ(e.what(), "[ManhattanTracker] coneAngleDeg = -1: must be in (0, 45)");
   }
+  mrpt::config::CConfigFileMemory typo("[ManhattanTracker]\nconeAngle = 10\n");
+  try {
+    p.loadFromConfigFile(typo, "ManhattanTracker");
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& e) {
+    EXPECT_STREQ(e.what(), "[ManhattanTracker] coneAngle: unknown key (did you mean coneAngleDeg?)");
+  }
+  // Round trip, including the unsigned and size_t keys.
+  ManhattanParams q;
+  q.seed = 4000000000u;
+  q.maxNormals = 12345;
+  mrpt::config::CConfigFileMemory saved(pslam::params::toIniText(q, "ManhattanTracker"));
+  ManhattanParams r;
+  r.loadFromConfigFile(saved, "ManhattanTracker");
+  EXPECT_EQ(r.seed, 4000000000u);
+  EXPECT_EQ(r.maxNormals, 12345u);
+}
+
+// Every shipped config/manhattan/*.ini loads through the loaders that read it: manhattan-eval's tracker
+// section and priors::makeNormalSource's normal sections.
+TEST(ManhattanParams, ShippedConfigsLoad) {
+  namespace fs = std::filesystem;
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(PRIORSLAM_SOURCE_DIR) / "config/manhattan")) {
+    if (entry.path().extension() != ".ini") continue;
+    SCOPED_TRACE(entry.path().string());
+    ++files;
+    mrpt::config::CConfigFile cfg(entry.path().string());
+    std::vector<std::string> sections;
+    cfg.getAllSections(sections);
+    for (const auto& s : sections) {
+      if (s == kTrackerSection) {
+        ManhattanParams p;
+        EXPECT_NO_THROW(p.loadFromConfigFile(cfg, s));
+      } else if (s == pslam::priors::kDepthNormalsSection) {
+        EXPECT_NO_THROW(pslam::priors::makeNormalSource("depth", entry.path()));
+      } else if (s == pslam::priors::kNetworkNormalsSection) {
+        // Its model file is not shipped: load the section only.
+        pslam::priors::NetworkNormalParams p;
+        EXPECT_NO_THROW(p.loadFromConfigFile(cfg, s, entry.path().parent_path().string()));
+      } else {
+        ADD_FAILURE() << "section [" << s << "] has no reader";
+      }
+    }
+  }
+  EXPECT_GE(files, 2);
 }

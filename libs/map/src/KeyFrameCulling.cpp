@@ -2,15 +2,7 @@
 
 #include <iterator>
 
-#include "pslam/core/Error.h"
-
 namespace pslam::map {
-
-void KeyFrameCullingParams::check(const std::string& section) const {
-  require(redundantFraction > 0.0 && redundantFraction <= 1.0, "[" + section + "] redundantFraction",
-          "must be in (0, 1]");
-  require(redundantMinObservers >= 1, "[" + section + "] redundantMinObservers", "must be >= 1");
-}
 
 int cullRedundantKeyFrames(Map& map, KeyFrameId newest, const KeyFrameCullingParams& params) {
   if (map.numKeyFrames() <= 2) return 0;

@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   try {
     if (numPoints < 100 || numKeyFrames < 3) throw pslam::Error("--points must be >= 100 and --keyframes >= 3");
     mapping::LocalMappingParams params;
-    params.pointPolicy.model = landmarks::parseMapPointModel(modelName);
+    params.pointModel.policy.model = landmarks::parseMapPointModel(modelName);
     params.ba.numThreads = 1;
     std::mt19937 rng(31);
     Scene s = makeScene(numPoints, 17);

@@ -74,7 +74,7 @@ std::vector<Match> filterByRotation(const std::vector<Match>& matches, const std
 }  // namespace
 
 struct LocalMapper::Impl {
-  /// The map-point model of params.pointPolicy (keypoint-model updates read its KeypointModel).
+  /// The map-point model of params.pointModel.policy (keypoint-model updates read its KeypointModel).
   std::shared_ptr<const MapPointModelPolicy> modelPolicy;
   /// What culling and the BA window ask: modelPolicy unless the caller supplied its own.
   std::shared_ptr<const map::PointUsePolicy> usePolicy;
@@ -84,7 +84,7 @@ LocalMapper::LocalMapper(map::Map& map, const LocalMappingParams& params,
                          std::shared_ptr<const map::PointUsePolicy> pointUsePolicy)
     : map_(map), params_(params), impl_(std::make_unique<Impl>()) {
   params_.check();
-  impl_->modelPolicy = std::make_shared<MapPointModelPolicy>(params_.pointPolicy, params_.keypointModel);
+  impl_->modelPolicy = std::make_shared<MapPointModelPolicy>(params_.pointModel.policy, params_.pointModel.keypoint);
   impl_->usePolicy = pointUsePolicy ? std::move(pointUsePolicy) : impl_->modelPolicy;
 }
 
@@ -92,7 +92,7 @@ LocalMapper::~LocalMapper() = default;
 
 void LocalMapper::reset() { recent_.clear(); }
 
-landmarks::MapPointModel LocalMapper::model() const { return params_.pointPolicy.model; }
+landmarks::MapPointModel LocalMapper::model() const { return params_.pointModel.policy.model; }
 
 namespace {
 /// SVO's initial seed spread: the whole inverse-depth range is +-3 sigma.
@@ -142,7 +142,7 @@ static bool updateLandmarkState(map::Map& map, const landmarks::KeypointModel& m
                                    ? 1.0
                                    : landmarks::matchingAccuracyFromDescriptors(
                                          p.descriptor, kf.descriptors.row(static_cast<int>(k)),
-                                         params.matchingAccuracy.hammingMaxDistance);
+                                         params.pointModel.matching.hammingMaxDistance);
           const double d = 1.0 / X_anchor.z();
           if (!kf.semanticProbabilities.empty()) {
             const auto& c = kf.semanticProbabilities.at(k);
@@ -200,7 +200,7 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
       continue;
     }
     // ORB-SLAM: a point that survived three keyframes leaves probation.
-    if (current - static_cast<std::int64_t>(p.firstKeyFrame) >= params_.pointPolicy.observationWindow + 1) continue;
+    if (current - static_cast<std::int64_t>(p.firstKeyFrame) >= params_.pointModel.policy.observationWindow + 1) continue;
     stillRecent.push_back(id);
   }
   recent_ = std::move(stillRecent);
@@ -363,7 +363,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
                                                                  kf1.camera.fx, params_.depthPixelNoise)
                                    : landmarks::DepthUncertainty{};
         const double variance = tau.valid && tau.tau2InverseDepth() > 0.0 ? tau.tau2InverseDepth()
-                                                                          : initialVariance(params_.keypointModel);
+                                                                          : initialVariance(params_.pointModel.keypoint);
         landmarks::KeypointState state = impl_->modelPolicy->keypointModel().initialize(p.inverseDepthAlongZ(), variance);
         if (!kf1.semanticProbabilities.empty()) {
           const auto& c1 = kf1.semanticProbabilities.at(m.i1);
@@ -373,7 +373,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
           const auto& c2 = kf2.semanticProbabilities.at(m.i2);
           const double alpha = landmarks::matchingAccuracyFromDescriptors(
               kf1.descriptors.row(static_cast<int>(m.i1)), kf2.descriptors.row(static_cast<int>(m.i2)),
-              params_.matchingAccuracy.hammingMaxDistance);
+              params_.pointModel.matching.hammingMaxDistance);
           impl_->modelPolicy->keypointModel().addSemanticObservation(state, {c2[0], c2[1], c2[2]}, alpha);
         }
         p.landmarkState = encodeKeypointState(state);
@@ -511,10 +511,7 @@ optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId
 // ------------------------------------------------------------------------------------ 6. KeyFrameCulling
 
 int LocalMapper::cullKeyFrames(KeyFrameId kfId) {
-  map::KeyFrameCullingParams culling;
-  culling.redundantFraction = params_.redundantFraction;
-  culling.redundantMinObservers = params_.redundantMinObservers;
-  return map::cullRedundantKeyFrames(map_, kfId, culling);
+  return map::cullRedundantKeyFrames(map_, kfId, params_.culling);
 }
 
 // ------------------------------------------------------------------------------------ all steps

@@ -33,32 +33,48 @@ TEST(LocalMappingParams, DefaultsAreOrbSlamAndBadValuesNameTheKey) {
   EXPECT_EQ(p.maxDescriptorDistance, 50);
   EXPECT_DOUBLE_EQ(p.nnRatio, 1.0);  // ORB-SLAM2 SearchForTriangulation: no ratio test
   EXPECT_EQ(p.ba.maxLocalKeyFrames, 20);
-  EXPECT_EQ(p.pointPolicy.model, landmarks::MapPointModel::Heuristic);
+  EXPECT_EQ(p.pointModel.policy.model, landmarks::MapPointModel::Heuristic);
+  EXPECT_DOUBLE_EQ(p.culling.redundantFraction, 0.9);
+  EXPECT_EQ(p.culling.redundantMinObservers, 3);
   EXPECT_NO_THROW(p.check());
-  mrpt::config::CConfigFileMemory cfg;
-  cfg.write("LocalMapping", "nnRatio", 1.5);
+  mrpt::config::CConfigFileMemory cfg("[LocalMapping]\nnnRatio = 1.5\n");
   try {
     LocalMappingParams q;
     q.loadFromConfigFile(cfg, "LocalMapping");
-    q.check();
     FAIL() << "nnRatio 1.5 accepted";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("nnRatio"), std::string::npos) << e.what();
+    EXPECT_STREQ(e.what(), "[LocalMapping] nnRatio = 1.5: must be in (0, 1]");
   }
-  mrpt::config::CConfigFileMemory cfg2;
-  cfg2.write("LocalMapping", "model", "probabilistic");
-  cfg2.write("LocalMapping", "covisibleKeyframes", 7);
+  // Keys are the field names; the point model has its own section [PointModel].
+  mrpt::config::CConfigFileMemory cfg2(
+      "[LocalMapping]\ncovisibleKeyFrames = 7\nepipolarMinDistancePixels = 4\nfusionRadiusPixels = 2.5\n"
+      "redundantFraction = 0.8\n");
   LocalMappingParams r;
   r.loadFromConfigFile(cfg2, "LocalMapping");
-  EXPECT_EQ(r.pointPolicy.model, landmarks::MapPointModel::Probabilistic);
   EXPECT_EQ(r.covisibleKeyFrames, 7);
-  // Round trip through saveToConfigFile.
-  mrpt::config::CConfigFileMemory cfg3;
-  r.saveToConfigFile(cfg3, "X");
+  EXPECT_EQ(r.epipolarMinDistancePixels, 4.0);
+  EXPECT_EQ(r.fusionRadiusPixels, 2.5);
+  EXPECT_EQ(r.culling.redundantFraction, 0.8);
+  for (const char* moved : {"model = probabilistic", "covisibleKeyframes = 7", "fusionRadius = 3"}) {
+    mrpt::config::CConfigFileMemory old(std::string("[LocalMapping]\n") + moved + "\n");
+    EXPECT_THROW(r.loadFromConfigFile(old, "LocalMapping"), Error) << moved;
+  }
+  // ba and pointModel belong to other sections: not written here, checked under their own names.
+  const std::string text = params::toIniText(r, "X");
+  EXPECT_EQ(text.find("maxLocalKeyFrames"), std::string::npos) << text;
+  EXPECT_EQ(text.find("model"), std::string::npos) << text;
+  mrpt::config::CConfigFileMemory cfg3(text);
   LocalMappingParams s;
   s.loadFromConfigFile(cfg3, "X");
   EXPECT_EQ(s.covisibleKeyFrames, 7);
-  EXPECT_EQ(s.pointPolicy.model, landmarks::MapPointModel::Probabilistic);
+  EXPECT_EQ(params::toIniText(s, "X"), text);
+  s.pointModel.keypoint.psiMin = 2;
+  try {
+    s.check();
+    FAIL() << "psiMin 2 accepted";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "[PointModel] psiMin = 2: must be in (0, 1)");
+  }
 }
 
 TEST(KeypointStateCodec, RoundTripAndBadInput) {
@@ -384,16 +400,16 @@ TEST(LocalMapper, SequenceKeepsInvariantsGrowsAnAccurateMapAndIsDeterministic) {
 
 TEST(LocalMapper, ProbabilisticModelUpdatesPointStatesAndActivatesConsistentPoints) {
   LocalMappingParams params = heuristicParams();
-  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
+  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
   std::vector<LocalMappingReport> reports;
   Scene s;
   const map::Map m = runSequence(params, 12, &reports, &s);
   int updates = 0;
   for (const auto& r : reports) updates += r.landmarkUpdates;
   EXPECT_GT(updates, 100);
-  landmarks::KeypointModel model(params.keypointModel);
+  landmarks::KeypointModel model(params.pointModel.keypoint);
   const double freshPhi = model.inlierRatio(model.initialize(0.2, 1e-4));
-  ASSERT_LT(freshPhi, params.keypointModel.psiMin);  // a = b = 10: new points start inactive
+  ASSERT_LT(freshPhi, params.pointModel.keypoint.psiMin);  // a = b = 10: new points start inactive
   int withState = 0, measured = 0, active = 0, updatedOften = 0;
   for (const auto& [id, p] : m.mapPoints()) {
     if (p.landmarkState.empty()) continue;
@@ -431,7 +447,7 @@ TEST(LocalMapper, MaskingModelDeactivatesDynamicPointsAndKeepsThemOutOfBundleAdj
   }
   const auto ids = addTruePoints(map, s, 0, 60, 0, {0, 1, 2});
   LocalMappingParams params = heuristicParams();
-  params.pointPolicy.model = landmarks::MapPointModel::Masking;
+  params.pointModel.policy.model = landmarks::MapPointModel::Masking;
   LocalMapper mapper(map, params);
   for (int slot = 0; slot < 3; ++slot) mapper.processNewKeyFrame(s.keyframes[slot], {});
   int dynamicSeen = 0;
@@ -471,13 +487,13 @@ TEST(LocalMapper, ProbabilisticCullingFollowsTheKeypointModel) {
   const auto ids = addTruePoints(map, s, 0, 60, 0, {0, 1});
   ASSERT_GT(ids.size(), 10u);
   LocalMappingParams params = heuristicParams();
-  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
-  const landmarks::KeypointModel model(params.keypointModel);
+  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
+  const landmarks::KeypointModel model(params.pointModel.keypoint);
   landmarks::KeypointState outlier = model.initialize(0.2, 1e-4);
   outlier.aObs = 1.0;
   outlier.bObs = 40.0;
-  outlier.depthUpdates = params.pointPolicy.cullMinDepthUpdates;
-  ASSERT_LT(model.inlierRatio(outlier), params.pointPolicy.cullInlierRatio);
+  outlier.depthUpdates = params.pointModel.policy.cullMinDepthUpdates;
+  ASSERT_LT(model.inlierRatio(outlier), params.pointModel.policy.cullInlierRatio);
   map.mutableMapPoint(ids[0]).landmarkState = encodeKeypointState(outlier);
   LocalMapper mapper(map, params);
   EXPECT_FALSE(mapper.isActive(ids[0]));
@@ -496,7 +512,7 @@ TEST(LocalMapper, ProbabilisticCullingFollowsTheKeypointModel) {
 
 TEST(LocalMapper, ProbabilisticSequenceIsDeterministic) {
   LocalMappingParams params = heuristicParams();
-  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
+  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
   std::vector<LocalMappingReport> r1, r2;
   EXPECT_TRUE(runSequence(params, 6, &r1) == runSequence(params, 6, &r2));
 }
@@ -604,7 +620,7 @@ TEST(LocalMapper, DefaultPolicyIsTheMapPointModel) {
   LocalMapper heuristic(map, params);
   EXPECT_EQ(heuristic.pointUsePolicy()->name(), "heuristic");
   EXPECT_TRUE(heuristic.pointUsePolicy()->usesEveryGoodPoint());
-  params.pointPolicy.model = landmarks::MapPointModel::Probabilistic;
+  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
   LocalMapper probabilistic(map, params);
   EXPECT_EQ(probabilistic.pointUsePolicy()->name(), "probabilistic");
   EXPECT_FALSE(probabilistic.pointUsePolicy()->usesEveryGoodPoint());

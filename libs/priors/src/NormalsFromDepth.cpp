@@ -61,63 +61,7 @@ PlaneFit fitPlane(const Moments& m) {
 
 }  // namespace
 
-void DepthNormalParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& c, const std::string& s) {
-  minDepth = c.read_double(s, "minDepth", minDepth);
-  maxDepth = c.read_double(s, "maxDepth", maxDepth);
-  windowRadius = c.read_int(s, "windowRadius", windowRadius);
-  maxDepthJumpRatio = c.read_double(s, "maxDepthJumpRatio", maxDepthJumpRatio);
-  minWindowValidShare = c.read_double(s, "minWindowValidShare", minWindowValidShare);
-  maxCurvature = c.read_double(s, "maxCurvature", maxCurvature);
-  cellSize = c.read_int(s, "cellSize", cellSize);
-  minCellValidShare = c.read_double(s, "minCellValidShare", minCellValidShare);
-  noiseQuadratic = c.read_double(s, "noiseQuadratic", noiseQuadratic);
-  noiseConstant = c.read_double(s, "noiseConstant", noiseConstant);
-  cellMseFactor = c.read_double(s, "cellMseFactor", cellMseFactor);
-  mergeMseFactor = c.read_double(s, "mergeMseFactor", mergeMseFactor);
-  mergeAngleDeg = c.read_double(s, "mergeAngleDeg", mergeAngleDeg);
-  minPlaneCells = c.read_int(s, "minPlaneCells", minPlaneCells);
-  inlierSigmas = c.read_double(s, "inlierSigmas", inlierSigmas);
-  usePlaneNormals = c.read_bool(s, "usePlaneNormals", usePlaneNormals);
-  check();
-}
-
-void DepthNormalParams::saveToConfigFile(mrpt::config::CConfigFileBase& c, const std::string& s) const {
-  c.write(s, "minDepth", minDepth);
-  c.write(s, "maxDepth", maxDepth);
-  c.write(s, "windowRadius", windowRadius);
-  c.write(s, "maxDepthJumpRatio", maxDepthJumpRatio);
-  c.write(s, "minWindowValidShare", minWindowValidShare);
-  c.write(s, "maxCurvature", maxCurvature);
-  c.write(s, "cellSize", cellSize);
-  c.write(s, "minCellValidShare", minCellValidShare);
-  c.write(s, "noiseQuadratic", noiseQuadratic);
-  c.write(s, "noiseConstant", noiseConstant);
-  c.write(s, "cellMseFactor", cellMseFactor);
-  c.write(s, "mergeMseFactor", mergeMseFactor);
-  c.write(s, "mergeAngleDeg", mergeAngleDeg);
-  c.write(s, "minPlaneCells", minPlaneCells);
-  c.write(s, "inlierSigmas", inlierSigmas);
-  c.write(s, "usePlaneNormals", usePlaneNormals);
-}
-
-void DepthNormalParams::check() const {
-  const std::string ctx = "NormalsFromDepth";
-  require(std::isfinite(minDepth) && minDepth >= 0, ctx, "minDepth must be >= 0");
-  require(std::isfinite(maxDepth) && maxDepth > minDepth, ctx, "maxDepth must be > minDepth");
-  require(windowRadius >= 1 && windowRadius <= 50, ctx, "windowRadius must be in [1, 50]");
-  require(std::isfinite(maxDepthJumpRatio) && maxDepthJumpRatio > 0, ctx, "maxDepthJumpRatio must be > 0");
-  require(minWindowValidShare > 0 && minWindowValidShare <= 1, ctx, "minWindowValidShare must be in (0, 1]");
-  require(maxCurvature > 0 && maxCurvature <= 1.0 / 3.0, ctx, "maxCurvature must be in (0, 1/3]");
-  require(cellSize >= 3 && cellSize <= 100, ctx, "cellSize must be in [3, 100]");
-  require(minCellValidShare > 0 && minCellValidShare <= 1, ctx, "minCellValidShare must be in (0, 1]");
-  require(std::isfinite(noiseQuadratic) && noiseQuadratic >= 0, ctx, "noiseQuadratic must be >= 0");
-  require(std::isfinite(noiseConstant) && noiseConstant > 0, ctx, "noiseConstant must be > 0");
-  require(std::isfinite(cellMseFactor) && cellMseFactor > 0, ctx, "cellMseFactor must be > 0");
-  require(std::isfinite(mergeMseFactor) && mergeMseFactor > 0, ctx, "mergeMseFactor must be > 0");
-  require(mergeAngleDeg > 0 && mergeAngleDeg < 90, ctx, "mergeAngleDeg must be in (0, 90)");
-  require(minPlaneCells >= 1, ctx, "minPlaneCells must be >= 1");
-  require(std::isfinite(inlierSigmas) && inlierSigmas > 0, ctx, "inlierSigmas must be > 0");
-}
+PSLAM_DEFINE_PARAMS(DepthNormalParams)
 
 PinholeIntrinsics PinholeIntrinsics::fromCamera(const mrpt::img::TCamera& c) {
   return {c.fx(), c.fy(), c.cx(), c.cy()};

@@ -65,11 +65,12 @@ struct System::Impl {
         }()),
         threaded(threadedMode) {
     params.mapping.ba = params.bundleAdjustment;
+    params.mapping.pointModel = params.pointModel;
     mapper = std::make_unique<mapping::LocalMapper>(map, params.mapping);
     tracker = std::make_unique<tracking::Tracker>(
         map, camera, params.tracking,
-        tracking::makeMapInitializer(params.mapInitializer, camera, params.initializer, params.bundleAdjustment),
-        tracking::makePoseSolver(params.poseSolver, params.poseOptimization), seed);
+        tracking::makeMapInitializer(params.system.initializer, camera, params.initializer, params.bundleAdjustment),
+        tracking::makePoseSolver(params.system.poseSolver, params.poseOptimization), seed);
     // The one point-use decision (§3.4.2-3.4.3): tracking asks the policy local mapping culls and optimizes with.
     tracker->setPointUsePolicy(mapper->pointUsePolicy());
     if (threaded) worker = std::thread([this] { mappingLoop(); });
@@ -174,12 +175,12 @@ System::System(SlamParams params, SystemOptions options)
   auto known = [](const std::vector<std::string>& names, const std::string& name) {
     return std::find(names.begin(), names.end(), name) != names.end();
   };
-  if (!known(tracking::poseSolverNames(), params_.poseSolver))
-    tracking::makePoseSolver(params_.poseSolver, params_.poseOptimization);  // throws naming the key and choices
-  if (!known(tracking::mapInitializerNames(), params_.mapInitializer))
-    tracking::makeMapInitializer(params_.mapInitializer, geometry::PinholeCamera(), params_.initializer,
+  if (!known(tracking::poseSolverNames(), params_.system.poseSolver))
+    tracking::makePoseSolver(params_.system.poseSolver, params_.poseOptimization);  // throws naming the key and choices
+  if (!known(tracking::mapInitializerNames(), params_.system.initializer))
+    tracking::makeMapInitializer(params_.system.initializer, geometry::PinholeCamera(), params_.initializer,
                                  params_.bundleAdjustment);
-  threaded_ = options_.threaded.value_or(params_.threaded);
+  threaded_ = options_.threaded.value_or(params_.system.threaded);
   if (options_.camera) {
     options_.camera->check();
     camera_ = options_.camera;
@@ -423,8 +424,8 @@ nlohmann::json System::report() const {
   r["seed"] = options_.seed;
   r["mode"] = threaded_ ? "threaded" : "sequential";
   r["mapping_enabled"] = mappingEnabled_;
-  r["pose_solver"] = params_.poseSolver;
-  r["map_initializer"] = params_.mapInitializer;
+  r["pose_solver"] = params_.system.poseSolver;
+  r["map_initializer"] = params_.system.initializer;
   r["summary"] = summary();
   if (impl_) {
     const geometry::PinholeCamera& cam = impl_->camera;

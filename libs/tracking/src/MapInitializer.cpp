@@ -36,7 +36,7 @@ std::unique_ptr<MapInitializer> makeMapInitializer(const std::string& name, cons
   if (!factory) {
     std::string known;
     for (const std::string& n : mapInitializerNames()) known += (known.empty() ? "" : ", ") + n;
-    throw Error("[System] mapInitializer = " + name + ": unknown initializer (known: " + known + ")");
+    throw Error("[System] initializer = " + name + ": unknown initializer (known: " + known + ")");
   }
   return factory(camera, params, ba);
 }

@@ -7,38 +7,7 @@
 
 namespace pslam::tracking {
 
-void InitializerParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& s) {
-  minKeypoints = cfg.read_int(s, "minKeypoints", minKeypoints);
-  minMatches = cfg.read_int(s, "minMatches", minMatches);
-  minMapPoints = cfg.read_int(s, "minMapPoints", minMapPoints);
-  maxReferenceAge = cfg.read_int(s, "maxReferenceAge", maxReferenceAge);
-  windowHalfSize = cfg.read_float(s, "windowHalfSize", windowHalfSize);
-  nnRatio = cfg.read_float(s, "nnRatio", nnRatio);
-  featureFactor = cfg.read_double(s, "featureFactor", featureFactor);
-  twoView.loadFromConfigFile(cfg, s);
-}
-
-void InitializerParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& s) const {
-  cfg.write(s, "minKeypoints", minKeypoints);
-  cfg.write(s, "minMatches", minMatches);
-  cfg.write(s, "minMapPoints", minMapPoints);
-  cfg.write(s, "maxReferenceAge", maxReferenceAge);
-  cfg.write(s, "windowHalfSize", windowHalfSize);
-  cfg.write(s, "nnRatio", nnRatio);
-  cfg.write(s, "featureFactor", featureFactor);
-  twoView.saveToConfigFile(cfg, s);
-}
-
-void InitializerParams::check() const {
-  require(minKeypoints >= 8, "[Initializer] minKeypoints", "must be >= 8");
-  require(minMatches >= 8, "[Initializer] minMatches", "must be >= 8");
-  require(minMapPoints >= 1, "[Initializer] minMapPoints", "must be >= 1");
-  require(maxReferenceAge >= 1, "[Initializer] maxReferenceAge", "must be >= 1");
-  require(windowHalfSize > 0, "[Initializer] windowHalfSize", "must be > 0");
-  require(nnRatio > 0 && nnRatio <= 1, "[Initializer] nnRatio", "must be in (0, 1]");
-  require(featureFactor >= 1 && featureFactor <= 10, "[Initializer] featureFactor", "must be in [1, 10]");
-  twoView.check();
-}
+PSLAM_DEFINE_PARAMS(InitializerParams)
 
 map::KeyFrame toKeyFrame(const Frame& frame) {
   map::KeyFrame kf;

@@ -9,70 +9,7 @@
 namespace pslam::tracking {
 
 // ---------------------------------------------------------------- parameters
-void TrackerParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& s) {
-  motionModelRadius = cfg.read_float(s, "motionModelRadius", motionModelRadius);
-  minMotionMatches = cfg.read_int(s, "minMotionMatches", minMotionMatches);
-  minReferenceMatches = cfg.read_int(s, "minReferenceMatches", minReferenceMatches);
-  referenceRatio = cfg.read_float(s, "referenceRatio", referenceRatio);
-  referenceMaxDistance = cfg.read_int(s, "referenceMaxDistance", referenceMaxDistance);
-  minPoseInliers = cfg.read_int(s, "minPoseInliers", minPoseInliers);
-  localMapRadius = cfg.read_float(s, "localMapRadius", localMapRadius);
-  localMapRatio = cfg.read_float(s, "localMapRatio", localMapRatio);
-  maxLocalKeyFrames = cfg.read_int(s, "maxLocalKeyframes", maxLocalKeyFrames);
-  minLocalMapInliers = cfg.read_int(s, "minLocalMapInliers", minLocalMapInliers);
-  minInliersAfterReloc = cfg.read_int(s, "minInliersAfterReloc", minInliersAfterReloc);
-  relocalizationCandidates = cfg.read_int(s, "relocalizationCandidates", relocalizationCandidates);
-  resetKeyFrames = cfg.read_int(s, "resetKeyframes", resetKeyFrames);
-  keyFrames.minFrames = cfg.read_int(s, "keyframeMinFrames", keyFrames.minFrames);
-  keyFrames.maxFrames = cfg.read_int(s, "keyframeMaxFrames", keyFrames.maxFrames);
-  keyFrames.refRatio = cfg.read_double(s, "keyframeRefRatio", keyFrames.refRatio);
-  keyFrames.minInliers = cfg.read_int(s, "keyframeMinInliers", keyFrames.minInliers);
-  pnp.loadFromConfigFile(cfg, s);
-}
-
-void TrackerParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& s) const {
-  cfg.write(s, "motionModelRadius", motionModelRadius);
-  cfg.write(s, "minMotionMatches", minMotionMatches);
-  cfg.write(s, "minReferenceMatches", minReferenceMatches);
-  cfg.write(s, "referenceRatio", referenceRatio);
-  cfg.write(s, "referenceMaxDistance", referenceMaxDistance);
-  cfg.write(s, "minPoseInliers", minPoseInliers);
-  cfg.write(s, "localMapRadius", localMapRadius);
-  cfg.write(s, "localMapRatio", localMapRatio);
-  cfg.write(s, "maxLocalKeyframes", maxLocalKeyFrames);
-  cfg.write(s, "minLocalMapInliers", minLocalMapInliers);
-  cfg.write(s, "minInliersAfterReloc", minInliersAfterReloc);
-  cfg.write(s, "relocalizationCandidates", relocalizationCandidates);
-  cfg.write(s, "resetKeyframes", resetKeyFrames);
-  cfg.write(s, "keyframeMinFrames", keyFrames.minFrames);
-  cfg.write(s, "keyframeMaxFrames", keyFrames.maxFrames);
-  cfg.write(s, "keyframeRefRatio", keyFrames.refRatio);
-  cfg.write(s, "keyframeMinInliers", keyFrames.minInliers);
-  pnp.saveToConfigFile(cfg, s);
-}
-
-void TrackerParams::check() const {
-  const std::string s = "[Tracking] ";
-  require(motionModelRadius > 0, s + "motionModelRadius", "must be > 0");
-  require(minMotionMatches >= 1, s + "minMotionMatches", "must be >= 1");
-  require(minReferenceMatches >= 4, s + "minReferenceMatches", "must be >= 4");
-  require(referenceRatio > 0 && referenceRatio <= 1, s + "referenceRatio", "must be in (0, 1]");
-  require(referenceMaxDistance >= 0 && referenceMaxDistance <= 256, s + "referenceMaxDistance", "must be in [0, 256]");
-  require(minPoseInliers >= 3, s + "minPoseInliers", "must be >= 3");
-  require(localMapRadius > 0, s + "localMapRadius", "must be > 0");
-  require(localMapRatio > 0 && localMapRatio <= 1, s + "localMapRatio", "must be in (0, 1]");
-  require(maxLocalKeyFrames >= 1, s + "maxLocalKeyframes", "must be >= 1");
-  require(minLocalMapInliers >= 3, s + "minLocalMapInliers", "must be >= 3");
-  require(minInliersAfterReloc >= minLocalMapInliers, s + "minInliersAfterReloc", "must be >= minLocalMapInliers");
-  require(relocalizationCandidates >= 1, s + "relocalizationCandidates", "must be >= 1");
-  require(resetKeyFrames >= 2, s + "resetKeyframes", "must be >= 2");
-  require(keyFrames.minFrames >= 0, s + "keyframeMinFrames", "must be >= 0");
-  require(keyFrames.maxFrames >= keyFrames.minFrames && keyFrames.maxFrames >= 1, s + "keyframeMaxFrames",
-          "must be >= max(1, keyframeMinFrames)");
-  require(keyFrames.refRatio > 0 && keyFrames.refRatio <= 1, s + "keyframeRefRatio", "must be in (0, 1]");
-  require(keyFrames.minInliers >= 0, s + "keyframeMinInliers", "must be >= 0");
-  pnp.check();
-}
+PSLAM_DEFINE_PARAMS(TrackerParams)
 
 const char* toString(FrameStatus status) {
   switch (status) {

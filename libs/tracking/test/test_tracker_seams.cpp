@@ -173,7 +173,7 @@ TEST(TrackerSeams, InitializerFactoryKnowsTwoViewAndRefusesOthers) {
     FAIL() << "no error";
   } catch (const Error& e) {
     const std::string m = e.what();
-    EXPECT_NE(m.find("[System] mapInitializer = manhattan?"), std::string::npos) << m;
+    EXPECT_NE(m.find("[System] initializer = manhattan?"), std::string::npos) << m;
     EXPECT_NE(m.find("twoView"), std::string::npos) << m;
   }
 }

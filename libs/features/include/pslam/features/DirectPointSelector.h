@@ -7,26 +7,33 @@
 
 #include <opencv2/core.hpp>
 
-namespace mrpt::config {
-class CConfigFileBase;
-}
+#include "pslam/core/Params.h"
 
 namespace pslam::features {
 
 struct DirectSelectorParams {
-  int targetPoints = 2000;       ///< wanted number of points (N_F^Direct; Table 3.2 uses 5000)
+  int targetPoints = 2000;
   /// W of Algorithm 3 for the first attempt; adapted to reach targetPoints. 0 = automatic: sqrt(area / target),
   /// the size at which one point per block gives the target (textured images fill nearly every block).
   int initialBlockSize = 0;
-  float thresholdOffset = 7.f;   ///< delta_W: gradient (grey levels/px) above the block mean needed at size W
-  float thresholdDecay = 0.75f;  ///< delta_2W = decay * delta_W, delta_4W = decay^2 * delta_W
-  int adaptIterations = 3;       ///< re-runs with W rescaled by sqrt(found/target) while off by > 15 %; the
-                                 ///< W whose count is closest to the target is kept
-  int border = 4;                ///< pixels kept free at the image border (photometric pattern support)
+  float thresholdOffset = 7.f;
+  float thresholdDecay = 0.75f;
+  /// Re-runs with W rescaled by sqrt(found/target) while off by > 15 %; the W whose count is closest to the
+  /// target is kept.
+  int adaptIterations = 3;
+  int border = 4;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, targetPoints, atLeast(1), "wanted number of points (N_F^Direct; Table 3.2 uses 5000)");
+    PSLAM_FIELD(v, initialBlockSize, atLeast(0), "W of the first attempt (px); 0 = automatic");
+    PSLAM_FIELD(v, thresholdOffset, atLeast(0), "delta_W: gradient (grey levels/px) above the block mean at size W");
+    PSLAM_FIELD(v, thresholdDecay, inLeftOpen(0, 1), "delta_2W = decay * delta_W, delta_4W = decay^2 * delta_W");
+    PSLAM_FIELD(v, adaptIterations, atLeast(0), "re-runs with a rescaled W");
+    PSLAM_FIELD(v, border, atLeast(1), "pixels kept free at the image border (photometric pattern support)");
+  }
+  PSLAM_PARAMS("DirectPoints")
 };
 
 struct DirectPoint {

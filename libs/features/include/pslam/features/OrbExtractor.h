@@ -9,22 +9,21 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 
-namespace mrpt::config {
-class CConfigFileBase;
-}
+#include "pslam/core/Params.h"
 
 namespace pslam::features {
 
-/// Extractor parameters. Defaults are ORB-SLAM's (and Table 3.2 apart from N_F, which the thesis raises to 5000).
+/// Extractor parameters ([ORB]). Defaults are ORB-SLAM's (and Table 3.2 apart from N_F, which the thesis raises
+/// to 5000).
 struct OrbParams {
-  int nFeatures = 2000;      ///< target number of keypoints over all levels (N_F^Descr)
-  double scaleFactor = 1.2;  ///< scale between consecutive pyramid levels (s_L^Descr)
-  int nLevels = 8;           ///< number of pyramid levels (N_L^Descr)
-  int iniThFAST = 20;        ///< FAST threshold tried first in every cell (tau_init^Descr)
-  int minThFAST = 7;         ///< FAST threshold used in a cell where the initial one finds nothing (tau_min^Descr)
-  int edgeThreshold = 19;    ///< border (px) padded around each level; keypoints keep edgeThreshold-3 px from the edge
-  int patchSize = 31;        ///< orientation/descriptor patch; the learned rBRIEF pattern exists for 31 only
-  int cellSize = 30;         ///< FAST grid cell size in level pixels (ORB-SLAM's W)
+  int nFeatures = 2000;
+  double scaleFactor = 1.2;
+  int nLevels = 8;
+  int iniThFAST = 20;
+  int minThFAST = 7;
+  int edgeThreshold = 19;
+  int patchSize = 31;
+  int cellSize = 30;
   /// Per-level budget: false = ORB-SLAM's geometric series with ratio 1/scaleFactor; true = ratio
   /// 1/scaleFactor^2 (strictly proportional to the level area).
   bool levelBudgetByArea = false;
@@ -32,10 +31,29 @@ struct OrbParams {
   /// at iniThFAST, per-cell fallback to minThFAST only in cells without a corner (same thresholds per cell).
   bool literalCellFast = false;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the offending key.
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, nFeatures, atLeast(1), "target number of keypoints over all levels (N_F^Descr)");
+    PSLAM_FIELD(v, scaleFactor, inOpen(1, 4), "scale between consecutive pyramid levels (s_L^Descr)");
+    PSLAM_FIELD(v, nLevels, inClosed(1, 32), "number of pyramid levels (N_L^Descr)");
+    PSLAM_FIELD(v, iniThFAST, inOpen(0, 255), "FAST threshold tried first in every cell (tau_init^Descr)");
+    PSLAM_FIELD(v, minThFAST, satisfies([this](int t) { return t > 0 && t <= iniThFAST; }, "must be in (0, iniThFAST]"),
+                "FAST threshold of a cell where the initial one finds nothing (tau_min^Descr)");
+    // Keypoints keep edgeThreshold-3 px from the level edge and the padding is edgeThreshold px: the circular
+    // orientation patch (radius 15) must fit inside the level and the rotated BRIEF tests (reach <= 19 px incl.
+    // the 7x7 blur) inside level + padding.
+    PSLAM_FIELD(v, edgeThreshold,
+                satisfies([this](int e) { return e >= patchSize / 2 + 4; }, "must be >= patchSize / 2 + 4"),
+                "border (px) padded around each level; keypoints keep edgeThreshold-3 px from the edge");
+    // The learned rBRIEF test pattern is defined on a 31x31 patch; other sizes would silently rescale it.
+    PSLAM_FIELD(v, patchSize, satisfies([](int p) { return p == 31; }, "must be 31, the size of the rBRIEF pattern"),
+                "orientation/descriptor patch (px)");
+    PSLAM_FIELD(v, cellSize, atLeast(8), "FAST grid cell size in level pixels (ORB-SLAM's W)");
+    PSLAM_FIELD(v, levelBudgetByArea, anyValue, "per-level budget proportional to the level area");
+    PSLAM_FIELD(v, literalCellFast, anyValue, "one cv::FAST call per cell as ORB-SLAM (reference, slower)");
+  }
+  PSLAM_PARAMS("ORB")
 };
 
 /// Milliseconds spent in the stages of one extract() call: wall-clock, and CPU time of the whole process (all

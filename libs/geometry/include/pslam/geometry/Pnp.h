@@ -13,21 +13,30 @@
 #include <mrpt/config/CConfigFileBase.h>
 #include <mrpt/poses/CPose3D.h>
 
+#include "pslam/core/Params.h"
 #include "pslam/geometry/PinholeCamera.h"
 
 namespace pslam::geometry {
 
 struct PnpParams {
   int ransacIterations = 300;
-  double sigma = 1.0;              ///< keypoint position std (pixels)
-  double chi2Threshold = 5.991;    ///< inlier if squared re-projection error <= chi2 * sigma^2 (2 dof, 95 %)
+  double sigma = 1.0;
+  double chi2Threshold = 5.991;
   double confidence = 0.99;
-  int minInliers = 15;             ///< fewer inliers after refinement = failure
-  bool refine = true;              ///< LM refinement on the RANSAC inliers
+  int minInliers = 15;
+  bool refine = true;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, ransacIterations, atLeast(1), "RANSAC iterations");
+    PSLAM_FIELD(v, sigma, greaterThan(0), "keypoint position std (pixels)");
+    PSLAM_FIELD(v, chi2Threshold, greaterThan(0), "inlier if squared reprojection error <= chi2 * sigma^2 (2 dof, 95 %)");
+    PSLAM_FIELD(v, confidence, inOpen(0, 1), "RANSAC confidence");
+    PSLAM_FIELD(v, minInliers, atLeast(4), "fewer inliers after refinement = failure (a pose has 6 degrees of freedom)");
+    PSLAM_FIELD(v, refine, anyValue, "Levenberg-Marquardt refinement on the RANSAC inliers");
+  }
+  PSLAM_PARAMS("Pnp")
 };
 
 enum class PnpFailure { None, TooFewCorrespondences, InvalidInput, RansacFailed, TooFewInliers };

@@ -24,25 +24,24 @@
 #include <mrpt/poses/CPose3D.h>
 #include <opencv2/core.hpp>
 
+#include "pslam/core/Params.h"
 #include "pslam/geometry/PinholeCamera.h"
 
 namespace pslam::geometry {
 
 struct TwoViewParams {
-  int ransacIterations = 200;            ///< RANSAC hypotheses (ORB-SLAM: 200)
-  double sigma = 1.0;                    ///< keypoint position std (pixels) for all chi^2 tests
+  int ransacIterations = 200;
+  double sigma = 1.0;
   /// Homography chosen when S_H / (S_H + S_F) > this. ORB-SLAM's code uses 0.40 (its paper: 0.45).
   /// Algorithm 1 of the thesis takes the better score, i.e. 0.5; the thesis builds on ORB-SLAM's
   /// initializer (§3.4.1), so its value is the default.
   double homographyRatioThreshold = 0.40;
-  double minParallaxDeg = 1.0;           ///< parallax of the accepted reconstruction (ORB-SLAM: 1 deg)
-  int minTriangulated = 50;              ///< minimum number of good triangulated points
-  double minTriangulatedFraction = 0.9;  ///< good points >= this * model inliers (ORB-SLAM: 0.9)
-  /// F: another solution with more than this * best good points makes the result ambiguous (ORB-SLAM 0.7).
+  double minParallaxDeg = 1.0;
+  int minTriangulated = 50;
+  double minTriangulatedFraction = 0.9;
   double similarSolutionFractionF = 0.7;
-  /// H: the second best solution must have fewer than this * best good points (ORB-SLAM 0.75).
   double secondBestFractionH = 0.75;
-  bool parallel = true;                  ///< run H and F RANSAC as two std::async tasks
+  bool parallel = true;
   /// Least-squares refits of the best model on its inliers (each kept only if the score rises).
   /// 0 = ORB-SLAM's behaviour (pose from the best 8-point hypothesis).
   int refitIterations = 2;
@@ -50,10 +49,24 @@ struct TwoViewParams {
   /// (Ceres). false = ORB-SLAM's behaviour (it relies on the global BA after initialization).
   bool refinePose = true;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the key for out-of-range values.
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, ransacIterations, atLeast(1), "RANSAC hypotheses (ORB-SLAM: 200)");
+    PSLAM_FIELD(v, sigma, greaterThan(0), "keypoint position std (pixels) for all chi^2 tests");
+    PSLAM_FIELD(v, homographyRatioThreshold, inClosed(0, 1), "H chosen when S_H / (S_H + S_F) > this (ORB-SLAM 0.40)");
+    PSLAM_FIELD(v, minParallaxDeg, inRightOpen(0, 90), "parallax of the accepted reconstruction (ORB-SLAM: 1 deg)");
+    PSLAM_FIELD(v, minTriangulated, atLeast(1), "minimum number of good triangulated points");
+    PSLAM_FIELD(v, minTriangulatedFraction, inClosed(0, 1), "good points >= this * model inliers (ORB-SLAM: 0.9)");
+    PSLAM_FIELD(v, similarSolutionFractionF, inLeftOpen(0, 1),
+                "F: another solution with more than this * best good points is ambiguous (ORB-SLAM 0.7)");
+    PSLAM_FIELD(v, secondBestFractionH, inLeftOpen(0, 1),
+                "H: the second best solution must have fewer than this * best good points (ORB-SLAM 0.75)");
+    PSLAM_FIELD(v, parallel, anyValue, "run H and F RANSAC as two std::async tasks");
+    PSLAM_FIELD(v, refitIterations, atLeast(0), "least-squares refits of the best model; 0 = ORB-SLAM");
+    PSLAM_FIELD(v, refinePose, anyValue, "refine an F-based (R, t) on the robust Sampson error; false = ORB-SLAM");
+  }
+  PSLAM_PARAMS("TwoView")
 };
 
 enum class TwoViewModel { None, Homography, Fundamental };

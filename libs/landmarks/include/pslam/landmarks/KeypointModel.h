@@ -12,13 +12,12 @@
 //    `vetoProbability` the point is invalid (phi = 0, never active); below that its mass adds no counts.
 //    No infinity is ever stored or computed.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <string>
 
-namespace mrpt::config {
-class CConfigFileBase;
-}
+#include "pslam/core/Params.h"
 
 namespace pslam::landmarks {
 
@@ -29,20 +28,41 @@ using ClassVector = std::array<double, kNumSemanticClasses>;
 /// Parameters of the keypoint model. Defaults: Table 3.1 (A_k, B_k), Table 3.2 (psi_min), SVO for the
 /// initial counts a = b = 10 (§3.5.5.1 initializes a = b; the value is not given in the thesis).
 struct KeypointModelParams {
-  double initialCount = 10.0;     ///< a_obs = b_obs at creation (§3.5.5.1)
-  double psiMin = 0.6;            ///< activation threshold on the inlier ratio (Table 3.2)
-  ClassVector priorA{5.0, 0.0, 0.0};  ///< A_k (Table 3.1)
-  ClassVector priorB{0.0, 5.0, std::numeric_limits<double>::infinity()};  ///< B_k, may be +inf (Table 3.1)
-  double vetoProbability = 0.5;   ///< q(c_k|S) of the B = inf classes from which a point is invalid
-  double inverseDepthMin = 0.0;   ///< Z_min of the uniform outlier density U (inverse depth, 1/m)
-  double inverseDepthMax = 10.0;  ///< Z_max of U (depth >= 0.1 scene units)
-  double probabilityFloor = 1.0 / 510.0;  ///< CNN probabilities are clamped here before -log (half an 8-bit step)
-  double minCount = 1e-3;         ///< lower bound of a_obs, b_obs after an update (keeps the Beta proper)
+  double initialCount = 10.0;
+  double psiMin = 0.6;
+  ClassVector priorA{5.0, 0.0, 0.0};
+  ClassVector priorB{0.0, 5.0, std::numeric_limits<double>::infinity()};
+  double vetoProbability = 0.5;
+  double inverseDepthMin = 0.0;
+  double inverseDepthMax = 10.0;
+  double probabilityFloor = 1.0 / 510.0;
+  double minCount = 1e-3;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the offending key.
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, initialCount, greaterThan(0), "a_obs = b_obs at creation (§3.5.5.1)");
+    PSLAM_FIELD(v, psiMin, inOpen(0, 1), "activation threshold on the inlier ratio (Table 3.2)");
+    // A_k = inf would need an "always inlier" rule symmetric to the veto; Table 3.1 has none, so refuse it.
+    v.field("A_static", priorA[0], atLeast(0), "A_k of class static (Table 3.1)");
+    v.field("B_static", priorB[0], atLeast(0).orInfinite(), "B_k of class static (Table 3.1)");
+    v.field("A_dynamic", priorA[1], atLeast(0), "A_k of class dynamic (Table 3.1)");
+    v.field("B_dynamic", priorB[1], atLeast(0).orInfinite(), "B_k of class dynamic (Table 3.1)");
+    v.field("A_invalid", priorA[2], atLeast(0), "A_k of class invalid (Table 3.1)");
+    v.field("B_invalid", priorB[2], atLeast(0).orInfinite(), "B_k of class invalid (Table 3.1; inf = veto)");
+    PSLAM_FIELD(v, vetoProbability, inLeftOpen(0, 1), "q(c_k|S) of the B = inf classes from which a point is invalid");
+    PSLAM_FIELD(v, inverseDepthMin, atLeast(0), "Z_min of the uniform outlier density U (inverse depth, 1/m)");
+    PSLAM_FIELD(v, inverseDepthMax,
+                satisfies([this](double z) { return std::isfinite(z) && z > inverseDepthMin; },
+                          "must be finite and > inverseDepthMin"),
+                "Z_max of U (depth >= 0.1 scene units)");
+    PSLAM_FIELD(v, probabilityFloor,
+                satisfies([](double p) { return p > 0 && p < 1.0 / kNumSemanticClasses; }, "must be in (0, 1/3)"),
+                "CNN probabilities are clamped here before -log (half an 8-bit step)");
+    PSLAM_FIELD(v, minCount, satisfies([this](double c) { return c > 0 && c < initialCount; }, "must be in (0, initialCount)"),
+                "lower bound of a_obs, b_obs after an update (keeps the Beta proper)");
+  }
+  PSLAM_PARAMS("PointModel")
   /// Uniform outlier density U(d|Z_min, Z_max) (eq. 2.85).
   double uniformDensity() const { return 1.0 / (inverseDepthMax - inverseDepthMin); }
 };

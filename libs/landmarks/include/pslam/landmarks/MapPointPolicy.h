@@ -4,19 +4,24 @@
 //   masking       - ORB-SLAM* culling, and a point is inactive while P(dynamic) > 0.5 (semantic masking).
 //   probabilistic - the keypoint model of §3.3: active while the inlier ratio phi >= psi_min.
 // The SLAM core keeps a MapPointRecord per point and asks the policy; switching models is a config key.
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 
+#include "pslam/core/Params.h"
 #include "pslam/landmarks/KeypointModel.h"
-
-namespace mrpt::config {
-class CConfigFileBase;
-}
 
 namespace pslam::landmarks {
 
 enum class MapPointModel { Heuristic, Masking, Probabilistic };
+/// The names of the models in configs (params::Codec).
+constexpr std::array<std::pair<MapPointModel, const char*>, 3> enumNames(MapPointModel) {
+  return {{{MapPointModel::Heuristic, "heuristic"},
+           {MapPointModel::Masking, "masking"},
+           {MapPointModel::Probabilistic, "probabilistic"}}};
+}
 
 /// "heuristic" | "masking" | "probabilistic" (case-insensitive). Throws pslam::Error listing the choices.
 MapPointModel parseMapPointModel(const std::string& text);
@@ -41,18 +46,27 @@ struct MapPointRecord {
 struct MapPointPolicyParams {
   MapPointModel model = MapPointModel::Probabilistic;
   // ORB-SLAM LocalMapping::MapPointCulling constants.
-  double minFoundRatio = 0.25;          ///< cull when found/visible < this
-  std::uint32_t minObservations = 2;    ///< cnThObs (monocular): cull when observations <= this ...
-  std::int64_t observationWindow = 2;   ///< ... and at least this many keyframes have passed since creation
-  double maskingDynamicThreshold = 0.5; ///< masking: inactive when P(dynamic) > this (§3.5.5.1)
+  double minFoundRatio = 0.25;
+  std::uint32_t minObservations = 2;
+  std::int64_t observationWindow = 2;
+  double maskingDynamicThreshold = 0.5;
   /// probabilistic: cull once phi < this after at least `cullMinDepthUpdates` depth updates (design choice,
   /// the thesis keeps inactive points; 0 disables culling).
   double cullInlierRatio = 0.1;
   std::uint32_t cullMinDepthUpdates = 5;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, model, anyValue, "heuristic | masking | probabilistic");
+    PSLAM_FIELD(v, minFoundRatio, inClosed(0, 1), "cull when found/visible < this");
+    PSLAM_FIELD(v, minObservations, anyValue, "cnThObs (monocular): cull when observations <= this ...");
+    PSLAM_FIELD(v, observationWindow, atLeast(0), "... and at least this many keyframes have passed since creation");
+    PSLAM_FIELD(v, maskingDynamicThreshold, inClosed(0, 1), "masking: inactive when P(dynamic) > this (§3.5.5.1)");
+    PSLAM_FIELD(v, cullInlierRatio, inRightOpen(0, 1), "probabilistic: cull once phi < this (0 = never)");
+    PSLAM_FIELD(v, cullMinDepthUpdates, anyValue, "probabilistic: ... after at least this many depth updates");
+  }
+  PSLAM_PARAMS("PointModel")
 };
 
 class MapPointPolicy {

@@ -5,9 +5,7 @@
 
 #include <opencv2/core.hpp>
 
-namespace mrpt::config {
-class CConfigFileBase;
-}
+#include "pslam/core/Params.h"
 
 namespace pslam::landmarks {
 
@@ -18,9 +16,13 @@ struct MatchingAccuracyParams {
   /// 9 pixels x 20^2 (the 9-pixel DSO pattern of Table 3.2 at 20 grey levels RMS difference).
   double photometricMaxSsd = 9.0 * 20.0 * 20.0;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, hammingMaxDistance, greaterThan(0), "d_max of eq. 3.2 (bits)");
+    PSLAM_FIELD(v, photometricMaxSsd, greaterThan(0), "Delta Phi_max of eq. 3.4 (grey levels^2 over the patch)");
+  }
+  PSLAM_PARAMS("PointModel")
 };
 
 /// eq. 3.2: alpha_desc = 1 - min(1, d / d_max). Throws pslam::Error for d < 0 or d_max <= 0.

@@ -14,32 +14,51 @@
 #include <mrpt/config/CConfigFileBase.h>
 #include <nlohmann/json.hpp>
 
+#include "pslam/core/Params.h"
 namespace pslam::manhattan {
 
 struct ManhattanParams {
-  double coneAngleDeg = 10.0;    ///< rho_th of Table 4.1: normals within this angle of an axis support it
-  double kernelWidth = 2.0;      ///< c of Table 4.1 in the Gaussian kernel exp(-c |p|^2) of eq. 2.67 (p in rad)
-  int maxIterations = 50;        ///< mean-shift iterations per estimate
-  double convergenceDeg = 0.01;  ///< stop when the rotation changes less than this per iteration
+  double coneAngleDeg = 10.0;
+  double kernelWidth = 2.0;
+  int maxIterations = 50;
+  double convergenceDeg = 0.01;
   /// Coarse stage before the rho_th stage: same iteration with a wider cone, so that an axis that moved more
   /// than rho_th since the previous estimate (or a sampled start) is still captured. 0 disables it.
   double coarseConeAngleDeg = 25.0;
-  std::size_t maxNormals = 20000;  ///< normals used per frame (seeded subsample of a larger set)
+  std::size_t maxNormals = 20000;
   // Validity of an estimate (callers reject a bad rotation, §4.4.2 "Pose Validation").
-  std::size_t minAxisSupport = 200;  ///< normals an axis needs to count as observed
-  double minAxisShare = 0.03;        ///< ... and this share of all normals
-  double maxAxisSpreadDeg = 6.0;     ///< RMS angle of the supporting normals to their axis
-  int minObservedAxes = 2;           ///< 2 = the third axis may come from the cross product (§4.4.1)
-  double maxStepDeg = 45.0;          ///< largest plausible MF rotation between consecutive frames
+  std::size_t minAxisSupport = 200;
+  double minAxisShare = 0.03;
+  double maxAxisSpreadDeg = 6.0;
+  int minObservedAxes = 2;
+  double maxStepDeg = 45.0;
   // First-frame initialization: sampled rotations, mean shift from each, clustering.
   int initSamples = 100;
-  double initClusterDeg = 3.0;  ///< converged rotations closer than this (modulo the cube symmetry) cluster
+  double initClusterDeg = 3.0;
   unsigned seed = 42;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the offending key.
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, coneAngleDeg, inOpen(0, 45), "rho_th of Table 4.1: normals within this angle of an axis support it");
+    PSLAM_FIELD(v, kernelWidth, atLeast(0), "c of Table 4.1 in the Gaussian kernel exp(-c |p|^2) of eq. 2.67 (p in rad)");
+    PSLAM_FIELD(v, maxIterations, atLeast(1), "mean-shift iterations per estimate");
+    PSLAM_FIELD(v, convergenceDeg, greaterThan(0), "stop when the rotation changes less than this per iteration");
+    PSLAM_FIELD(v, coarseConeAngleDeg,
+                satisfies([this](double c) { return c == 0 || (c >= coneAngleDeg && c < 45); },
+                          "must be 0 or in [coneAngleDeg, 45)"),
+                "cone of the coarse stage (deg); 0 = none");
+    PSLAM_FIELD(v, maxNormals, atLeast(10), "normals used per frame (seeded subsample of a larger set)");
+    PSLAM_FIELD(v, minAxisSupport, anyValue, "normals an axis needs to count as observed");
+    PSLAM_FIELD(v, minAxisShare, inRightOpen(0, 1), "... and this share of all normals");
+    PSLAM_FIELD(v, maxAxisSpreadDeg, greaterThan(0), "RMS angle of the supporting normals to their axis");
+    PSLAM_FIELD(v, minObservedAxes, inClosed(2, 3), "2 = the third axis may come from the cross product (§4.4.1)");
+    PSLAM_FIELD(v, maxStepDeg, inLeftOpen(0, 45), "largest plausible MF rotation between consecutive frames");
+    PSLAM_FIELD(v, initSamples, atLeast(1), "sampled start rotations of the first-frame initialization");
+    PSLAM_FIELD(v, initClusterDeg, greaterThan(0), "converged rotations closer than this (modulo the cube symmetry) cluster");
+    PSLAM_FIELD(v, seed, anyValue, "seed of the normal subsample and the start rotations");
+  }
+  PSLAM_PARAMS("ManhattanTracker")
 };
 
 struct AxisSupport {

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <mrpt/config/CConfigFileBase.h>
 
+#include "pslam/core/Params.h"
 namespace pslam::manhattan {
 
 /// Linear least-squares direction of t from 2D-2D correspondences (eq. 2.34): every pair gives the row
@@ -29,14 +30,21 @@ Eigen::Vector3d solveTranslationMetric(const std::vector<Eigen::Vector3d>& point
 
 struct TranslationRansacParams {
   int maxIterations = 500;
-  double confidence = 0.999;          ///< early stop once this probability of an all-inlier sample is reached
-  double inlierThreshold = 2.0e-3;    ///< 2D-2D: sine of the angle to the epipolar plane; 3D-2D: normalized px
+  double confidence = 0.999;
+  double inlierThreshold = 2.0e-3;
   std::size_t minInliers = 8;
   unsigned seed = 7;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, maxIterations, atLeast(1), "RANSAC iterations");
+    PSLAM_FIELD(v, confidence, inOpen(0, 1), "early stop once this probability of an all-inlier sample is reached");
+    PSLAM_FIELD(v, inlierThreshold, greaterThan(0), "2D-2D: sine of the angle to the epipolar plane; 3D-2D: normalized px");
+    PSLAM_FIELD(v, minInliers, atLeast(2), "fewer inliers: no estimate");
+    PSLAM_FIELD(v, seed, anyValue, "RANSAC seed");
+  }
+  PSLAM_PARAMS("TranslationRansac")
 };
 
 struct TranslationEstimate {

@@ -3,15 +3,21 @@
 // when more than `redundantFraction` of its map points are seen by at least `redundantMinObservers` other
 // keyframes at the same or a finer scale (one pyramid level coarser allowed). The first two keyframes (the
 // initial map, which fixes the gauge) and the newest one are never erased. Step 6 of mapping::LocalMapper.
+#include "pslam/core/Params.h"
 #include "pslam/map/Map.h"
 
 namespace pslam::map {
 
 struct KeyFrameCullingParams {
-  double redundantFraction = 0.9;  ///< ORB-SLAM: 90 % of the points redundant
-  int redundantMinObservers = 3;   ///< ORB-SLAM thObs = 3
-  /// Throws pslam::Error naming `section` and the key.
-  void check(const std::string& section) const;
+  double redundantFraction = 0.9;
+  int redundantMinObservers = 3;
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, redundantFraction, inLeftOpen(0, 1), "cull when this share of points is redundant (ORB-SLAM 0.9)");
+    PSLAM_FIELD(v, redundantMinObservers, atLeast(1), "other keyframes at the same or a finer scale (ORB-SLAM thObs 3)");
+  }
 };
 
 /// Examines the keyframes covisible with `newest` (ascending id) and erases the redundant ones

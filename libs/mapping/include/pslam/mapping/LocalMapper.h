@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "pslam/landmarks/KeypointModel.h"
-#include "pslam/landmarks/MapPointPolicy.h"
-#include "pslam/landmarks/MatchingAccuracy.h"
+#include "pslam/core/Params.h"
+#include "pslam/landmarks/PointModel.h"
+#include "pslam/map/KeyFrameCulling.h"
 #include "pslam/map/Map.h"
 #include "pslam/map/PointUsePolicy.h"
 #include "pslam/mapping/MapPointModelPolicy.h"
@@ -25,62 +25,71 @@
 #include "pslam/optimize/MapAdapter.h"
 #include "pslam/optimize/Params.h"
 
-namespace mrpt::config {
-class CConfigFileBase;
-}
-
 namespace pslam::mapping {
 
-/// Parameters; defaults are ORB-SLAM's LocalMapping.cc / ORBmatcher.cc (monocular) and Table 3.2.
+/// Parameters ([LocalMapping]); defaults are ORB-SLAM's LocalMapping.cc / ORBmatcher.cc (monocular) and Table 3.2.
 struct LocalMappingParams {
   // ---- CreateNewMapPoints ----
-  int covisibleKeyFrames = 20;       ///< key covisibleKeyframes: neighbours to triangulate with (monocular 20)
-  int maxDescriptorDistance = 50;    ///< key maxDescriptorDistance: TH_LOW of SearchForTriangulation
-  /// key nnRatio: best/second-best distance ratio of SearchForTriangulation; 1 (default) = no ratio test, as
-  /// ORB-SLAM2's SearchForTriangulation (the 0.6 it constructs its matcher with is not applied there). Measured on
-  /// KITTI 00: 0.6 keeps a third of the triangulations and the tracker then inserts a keyframe almost every frame.
+  int covisibleKeyFrames = 20;
+  int maxDescriptorDistance = 50;
+  /// Best/second-best distance ratio of SearchForTriangulation; 1 (default) = no ratio test, as ORB-SLAM2's
+  /// SearchForTriangulation (the 0.6 it constructs its matcher with is not applied there). Measured on KITTI 00:
+  /// 0.6 keeps a third of the triangulations and the tracker then inserts a keyframe almost every frame.
   double nnRatio = 1.0;
-  bool checkOrientation = true;      ///< key checkOrientation: rotation-histogram consistency (30 bins)
-  double minBaselineRatio = 0.01;    ///< key minBaselineRatio: skip a neighbour if baseline/median depth < this
-  double maxParallaxCos = 0.9998;    ///< key maxParallaxCos: rays closer than this are not triangulated
-  double chi2Threshold = 5.991;      ///< key chi2Threshold: reprojection test chi2 * sigma^2 (2 DoF, 95 %)
-  double scaleConsistencyFactor = 1.5;  ///< key scaleConsistencyFactor: ratioFactor = this * scale factor
-  double epipolarMinDistancePixels = 10.0;  ///< key epipolarMinDistance: reject matches near the epipole (x scale)
+  bool checkOrientation = true;
+  double minBaselineRatio = 0.01;
+  double maxParallaxCos = 0.9998;
+  double chi2Threshold = 5.991;
+  double scaleConsistencyFactor = 1.5;
+  double epipolarMinDistancePixels = 10.0;
 
   // ---- SearchInNeighbors ----
-  int fusionNeighbours = 20;         ///< key fusionNeighbours: first-order neighbours (monocular 20)
-  int fusionSecondOrderNeighbours = 5;  ///< key fusionSecondOrderNeighbours: per first-order neighbour
-  double fusionRadiusPixels = 3.0;   ///< key fusionRadius: search radius th * scale^level (Fuse th = 3)
-  /// key fusionDistanceBand: Fuse accepts a point at [(1 - b) minDistance, (1 + b) maxDistance] from the keyframe.
-  /// ORB-SLAM's invariance band is 0.2 (default); 0 (the shipped configs) fuses 2.5x less on KITTI 00, the
-  /// tracker then inserts fewer keyframes: half the CPU and a better ATE there (doc/slam.md).
+  int fusionNeighbours = 20;
+  int fusionSecondOrderNeighbours = 5;
+  double fusionRadiusPixels = 3.0;
+  /// Fuse accepts a point at [(1 - b) minDistance, (1 + b) maxDistance] from the keyframe. ORB-SLAM's
+  /// invariance band is 0.2 (default); 0 (the shipped configs) fuses 2.5x less on KITTI 00, the tracker then
+  /// inserts fewer keyframes: half the CPU and a better ATE there (doc/slam.md).
   double fusionDistanceBand = 0.2;
 
   // ---- MapPointCulling and the map-point model ----
-  /// Keys of landmarks::MapPointPolicyParams (model = heuristic|masking|probabilistic, minFoundRatio, ...),
-  /// KeypointModelParams and MatchingAccuracyParams, all read from the same section. Default: heuristic.
-  landmarks::MapPointPolicyParams pointPolicy = [] {
-    landmarks::MapPointPolicyParams p;
-    p.model = landmarks::MapPointModel::Heuristic;
-    return p;
-  }();
-  landmarks::KeypointModelParams keypointModel;     ///< used when pointPolicy.model == Probabilistic
-  landmarks::MatchingAccuracyParams matchingAccuracy;
-  double depthPixelNoise = 1.0;      ///< key depthPixelNoise: pixel angle of eq. 2.26 for tau^2
+  double depthPixelNoise = 1.0;
 
   // ---- KeyFrameCulling ----
-  bool cullKeyFrames = true;         ///< key cullKeyFrames
-  double redundantFraction = 0.9;    ///< key redundantFraction: cull when this share of points is redundant
-  int redundantMinObservers = 3;     ///< key redundantMinObservers: other keyframes at same or finer scale
+  bool cullKeyFrames = true;
+  map::KeyFrameCullingParams culling;
 
   // ---- LocalBundleAdjustment (maxLocalKeyFrames = N_lBA = 20, Table 3.2) ----
-  bool localBundleAdjustment = true; ///< key localBundleAdjustment
-  optimize::BundleAdjustmentParams ba;  ///< loaded by the caller from its own section (not by this struct)
+  bool localBundleAdjustment = true;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the offending key.
-  void check() const;
+  // ---- set by the caller from their own sections (SlamParams copies them), not read from [LocalMapping] ----
+  optimize::BundleAdjustmentParams ba;   ///< [BundleAdjustment]
+  landmarks::PointModelParams pointModel;  ///< [PointModel]; default heuristic (ORB-SLAM*)
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, covisibleKeyFrames, atLeast(1), "neighbours to triangulate with (monocular 20)");
+    PSLAM_FIELD(v, maxDescriptorDistance, inClosed(0, 256), "TH_LOW of SearchForTriangulation");
+    PSLAM_FIELD(v, nnRatio, inLeftOpen(0, 1), "best/second-best ratio of SearchForTriangulation; 1 = none");
+    PSLAM_FIELD(v, checkOrientation, anyValue, "rotation-histogram consistency (30 bins)");
+    PSLAM_FIELD(v, minBaselineRatio, atLeast(0), "skip a neighbour if baseline / median depth < this");
+    PSLAM_FIELD(v, maxParallaxCos, inOpen(0, 1), "rays closer than this are not triangulated");
+    PSLAM_FIELD(v, chi2Threshold, greaterThan(0), "reprojection test chi2 * sigma^2 (2 DoF, 95 %)");
+    PSLAM_FIELD(v, scaleConsistencyFactor, atLeast(1), "ratioFactor = this * scale factor");
+    PSLAM_FIELD(v, epipolarMinDistancePixels, atLeast(0), "reject matches nearer the epipole (px x scale)");
+    PSLAM_FIELD(v, fusionNeighbours, atLeast(0), "first-order neighbours of Fuse (monocular 20)");
+    PSLAM_FIELD(v, fusionSecondOrderNeighbours, atLeast(0), "per first-order neighbour");
+    PSLAM_FIELD(v, fusionRadiusPixels, greaterThan(0), "Fuse search radius th x scale^level (th = 3)");
+    PSLAM_FIELD(v, fusionDistanceBand, inRightOpen(0, 1), "Fuse distance band b (ORB-SLAM 0.2)");
+    PSLAM_FIELD(v, depthPixelNoise, greaterThan(0), "pixel angle of eq. 2.26 for tau^2");
+    PSLAM_FIELD(v, cullKeyFrames, anyValue, "KeyFrameCulling on/off");
+    v.flat(culling);
+    PSLAM_FIELD(v, localBundleAdjustment, anyValue, "local BA on/off");
+    v.fromSection("BundleAdjustment", ba);
+    v.fromSection("PointModel", pointModel);
+  }
+  PSLAM_PARAMS("LocalMapping")
 };
 
 /// What one processKeyFrame() call did.
@@ -101,7 +110,7 @@ struct LocalMappingReport {
 class LocalMapper {
  public:
   /// Keeps a reference to `map` (must outlive the mapper). Calls params.check(). Culling and the BA window ask
-  /// `pointUsePolicy` whether a point may be used; null = the MapPointModelPolicy of params.pointPolicy (share it
+  /// `pointUsePolicy` whether a point may be used; null = the MapPointModelPolicy of params.pointModel (share it
   /// with the tracker through pointUsePolicy(), so both decide alike).
   LocalMapper(map::Map& map, const LocalMappingParams& params,
               std::shared_ptr<const map::PointUsePolicy> pointUsePolicy = nullptr);

@@ -12,42 +12,64 @@
 //     the remaining cells are merged region by region (best-fitting cell first) while the merged plane still
 //     fits within the noise and the normals agree. Regions large enough are planes; their pixels near the
 //     plane form the planar mask and (optionally) receive the plane normal.
+#include <cmath>
 #include <string>
 
 #include <mrpt/config/CConfigFileBase.h>
 #include <mrpt/img/TCamera.h>
 #include <opencv2/core.hpp>
 
+#include "pslam/core/Params.h"
 #include "pslam/priors/NormalMap.h"
 
 namespace pslam::priors {
 
 struct DepthNormalParams {
-  double minDepth = 0.1;             ///< [m] closer depths are invalid
-  double maxDepth = 8.0;             ///< [m] farther depths are invalid
-  int windowRadius = 5;              ///< [px] PCA window is (2r+1)^2
+  double minDepth = 0.1;
+  double maxDepth = 8.0;
+  int windowRadius = 5;
   /// Neighbouring depths differing by more than this share of the depth are a discontinuity; pixels whose
   /// PCA window would reach across one get no normal (the window would mix two surfaces).
   double maxDepthJumpRatio = 0.03;
-  double minWindowValidShare = 0.6;  ///< share of valid pixels a PCA window needs
-  double maxCurvature = 0.05;        ///< lambda_min / trace above this = edge or clutter, no normal
-  int cellSize = 10;                 ///< [px] AHC cell side
-  double minCellValidShare = 0.8;    ///< share of valid pixels a cell needs
+  double minWindowValidShare = 0.6;
+  double maxCurvature = 0.05;
+  int cellSize = 10;
+  double minCellValidShare = 0.8;
   /// Sensor depth noise model sigma(z) = noiseQuadratic * z^2 + noiseConstant [m] (Kinect-like, as in AHC).
   double noiseQuadratic = 0.0016;
   double noiseConstant = 0.002;
-  double cellMseFactor = 1.0;        ///< a cell is planar if its plane RMS error <= factor * sigma(z)
-  double mergeMseFactor = 2.0;       ///< a merge is accepted if the merged RMS error <= factor * sigma(z)
-  double mergeAngleDeg = 15.0;       ///< a merge needs cell and region normals within this angle
-  int minPlaneCells = 40;            ///< regions with fewer cells are not planes
-  double inlierSigmas = 3.0;         ///< pixels of a plane's cells within this many sigma(z) are planar ...
-  /// ... and whose own PCA normal (when it has one) is within mergeAngleDeg of the plane normal
-  bool usePlaneNormals = true;       ///< planar pixels get the plane normal instead of the PCA normal
+  double cellMseFactor = 1.0;
+  double mergeMseFactor = 2.0;
+  double mergeAngleDeg = 15.0;
+  int minPlaneCells = 40;
+  /// Pixels of a plane's cells within this many sigma(z) are planar, and whose own PCA normal (when it has
+  /// one) is within mergeAngleDeg of the plane normal.
+  double inlierSigmas = 3.0;
+  bool usePlaneNormals = true;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the offending key.
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, minDepth, atLeast(0), "[m] closer depths are invalid");
+    PSLAM_FIELD(v, maxDepth, satisfies([this](double d) { return std::isfinite(d) && d > minDepth; }, "must be > minDepth"),
+                "[m] farther depths are invalid");
+    PSLAM_FIELD(v, windowRadius, inClosed(1, 50), "[px] PCA window is (2r+1)^2");
+    PSLAM_FIELD(v, maxDepthJumpRatio, greaterThan(0), "depth discontinuity as a share of the depth");
+    PSLAM_FIELD(v, minWindowValidShare, inLeftOpen(0, 1), "share of valid pixels a PCA window needs");
+    PSLAM_FIELD(v, maxCurvature, satisfies([](double c) { return c > 0 && c <= 1.0 / 3.0; }, "must be in (0, 1/3]"),
+                "lambda_min / trace above this = edge or clutter, no normal");
+    PSLAM_FIELD(v, cellSize, inClosed(3, 100), "[px] AHC cell side");
+    PSLAM_FIELD(v, minCellValidShare, inLeftOpen(0, 1), "share of valid pixels a cell needs");
+    PSLAM_FIELD(v, noiseQuadratic, atLeast(0), "sigma(z) = noiseQuadratic * z^2 + noiseConstant [m]");
+    PSLAM_FIELD(v, noiseConstant, greaterThan(0), "see noiseQuadratic");
+    PSLAM_FIELD(v, cellMseFactor, greaterThan(0), "a cell is planar if its plane RMS error <= factor * sigma(z)");
+    PSLAM_FIELD(v, mergeMseFactor, greaterThan(0), "a merge is accepted if the merged RMS error <= factor * sigma(z)");
+    PSLAM_FIELD(v, mergeAngleDeg, inOpen(0, 90), "a merge needs cell and region normals within this angle");
+    PSLAM_FIELD(v, minPlaneCells, atLeast(1), "regions with fewer cells are not planes");
+    PSLAM_FIELD(v, inlierSigmas, greaterThan(0), "plane pixels within this many sigma(z) are planar");
+    PSLAM_FIELD(v, usePlaneNormals, anyValue, "planar pixels get the plane normal instead of the PCA normal");
+  }
+  PSLAM_PARAMS("NormalsFromDepth")
 };
 
 /// Pinhole intrinsics of the depth image (registered to the camera; distortion is not modelled).

@@ -1,20 +1,40 @@
 #pragma once
-// All parameters of a SLAM run, one ini section per component (DESIGN.md §5):
+// All parameters of a SLAM run, one ini section per component (DESIGN.md §5); keys are the field names of
+// each struct (pslam/core/Params.h), tables in doc/slam.md:
 //   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
-//   [LocalMapping] mapping::LocalMappingParams   [System] threaded, localMapper
+//   [LocalMapping] mapping::LocalMappingParams   [PointModel] landmarks::PointModelParams   [System] SystemParams
+// An unknown section or key is an error naming the closest valid one.
 #include <string>
 #include <vector>
 
 #include <mrpt/config/CConfigFileBase.h>
 
+#include "pslam/core/Params.h"
 #include "pslam/features/OrbExtractor.h"
-#include "pslam/optimize/Params.h"
+#include "pslam/landmarks/PointModel.h"
 #include "pslam/mapping/LocalMapper.h"
+#include "pslam/optimize/Params.h"
 #include "pslam/tracking/MonocularInitializer.h"
 #include "pslam/tracking/Tracker.h"
 
 namespace pslam::system {
+
+/// [System]: how the run is put together. The names are validated by the factories that build the parts.
+struct SystemParams {
+  bool threaded = false;
+  std::string poseSolver = "full6dof";
+  std::string initializer = "twoView";
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, threaded, anyValue, "local mapping in a second thread (live use); false = deterministic");
+    PSLAM_FIELD(v, poseSolver, nonEmpty, "tracking pose solver (full6dof = motion-only BA)");
+    PSLAM_FIELD(v, initializer, nonEmpty, "map initializer (twoView = H/F two-view initialization)");
+  }
+  PSLAM_PARAMS("System")
+};
 
 struct SlamParams {
   features::OrbParams orb;
@@ -22,22 +42,35 @@ struct SlamParams {
   tracking::TrackerParams tracking;
   optimize::PoseOptimizationParams poseOptimization;
   optimize::BundleAdjustmentParams bundleAdjustment;
-  mapping::LocalMappingParams mapping;  ///< [LocalMapping]; mapping.ba is [BundleAdjustment]
-  bool threaded = false;  ///< [System] threaded: mapping in a second thread (live use); false = deterministic
-  std::string poseSolver = "full6dof";  ///< [System] poseSolver: tracking::makePoseSolver name
-  std::string mapInitializer = "twoView";  ///< [System] mapInitializer: tracking::makeMapInitializer name
-  std::string localMapper = "auto";  ///< [System] localMapper: auto | mapping (the same: libs/mapping)
-  std::string sourceIni;  ///< text of the loaded ini (components outside this struct read their keys from it)
+  /// [LocalMapping]; mapping.ba and mapping.pointModel are copies of [BundleAdjustment] and [PointModel]
+  /// (loadFromConfigFile and SlamSystem set them).
+  mapping::LocalMappingParams mapping;
+  landmarks::PointModelParams pointModel;  ///< default heuristic (ORB-SLAM*)
+  SystemParams system;
+
+  template <class V>
+  void visitSections(V& v) {
+    v.section("ORB", orb);
+    v.section("Initializer", initializer);
+    v.section("Tracking", tracking);
+    v.section("PoseOptimization", poseOptimization);
+    v.section("BundleAdjustment", bundleAdjustment);
+    v.section("LocalMapping", mapping);
+    v.section("PointModel", pointModel);
+    v.section("System", system);
+  }
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);
   void saveToConfigFile(mrpt::config::CConfigFileBase& cfg) const;
-  /// Throws pslam::Error naming the section and key of the first invalid value.
+  /// Throws params::ParamError `[Section] key = value: reason` for the first invalid value.
   void check() const;
-  /// Effective configuration as ini text (for the run report).
+  /// Effective configuration as ini text (for the run report); it reloads to equal parameters.
   std::string toIniText() const;
 };
 
-/// Loads and checks an ini file with "Section.key=value" overrides applied; errors name the file.
+/// Loads and checks an ini file after applying `overrides` (`Section.key=value`, as from a CLI `--set`, later
+/// ones win). Errors name the file (`config/slam/kitti.ini: [Tracking] ...`) or the override that set the
+/// failing key (`override 'Tracking.x=1': [Tracking] x: unknown key (did you mean ...)`).
 SlamParams loadSlamParams(const std::string& iniPath, const std::vector<std::string>& overrides = {});
 
 }  // namespace pslam::system

@@ -2,6 +2,8 @@
 // ORB-SLAM's Tracking::NeedNewKeyFrame for a monocular camera (thesis §2.4.1).
 #include <cstddef>
 
+#include "pslam/core/Params.h"
+
 namespace pslam::tracking {
 
 struct KeyFrameDecisionInput {
@@ -16,10 +18,20 @@ struct KeyFrameDecisionInput {
 };
 
 struct KeyFrameDecisionParams {
-  int minFrames = 0;              ///< ORB-SLAM mMinFrames
-  int maxFrames = 30;             ///< ORB-SLAM mMaxFrames = camera fps
-  double refRatio = 0.9;          ///< monocular thRefRatio
-  int minInliers = 15;            ///< the frame must still track more than this
+  int minFrames = 0;
+  int maxFrames = 30;
+  double refRatio = 0.9;
+  int minInliers = 15;
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, minFrames, atLeast(0), "ORB-SLAM mMinFrames");
+    PSLAM_FIELD(v, maxFrames, satisfies([this](int m) { return m >= 1 && m >= minFrames; }, "must be >= max(1, minFrames)"),
+                "ORB-SLAM mMaxFrames = camera fps");
+    PSLAM_FIELD(v, refRatio, inLeftOpen(0, 1), "monocular thRefRatio");
+    PSLAM_FIELD(v, minInliers, atLeast(0), "the frame must still track more than this");
+  }
 };
 
 /// true when a keyframe should be inserted now.

@@ -1,5 +1,5 @@
 #pragma once
-// Swappable map initializer used by the tracker until a map exists, chosen by name ([System] mapInitializer)
+// Swappable map initializer used by the tracker until a map exists, chosen by name ([System] initializer)
 // through a factory:
 //   twoView  ORB-SLAM's monocular initialization (parallel H/F model selection, Algorithm 1; MonocularInitializer)
 // The Manhattan decoupled initializer of thesis §4.4.1 (rotation from the Manhattan frames, translation by
@@ -42,7 +42,7 @@ class MapInitializer {
 
 using MapInitializerFactory = std::function<std::unique_ptr<MapInitializer>(
     const geometry::PinholeCamera& camera, const InitializerParams& params, const optimize::BundleAdjustmentParams& ba)>;
-/// Makes the initializer registered under `name`. Throws pslam::Error("[System] mapInitializer = <name>: unknown
+/// Makes the initializer registered under `name`. Throws pslam::Error("[System] initializer = <name>: unknown
 /// initializer (known: ...)") for an unknown name.
 std::unique_ptr<MapInitializer> makeMapInitializer(const std::string& name, const geometry::PinholeCamera& camera,
                                                    const InitializerParams& params,

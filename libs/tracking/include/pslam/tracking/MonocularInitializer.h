@@ -21,21 +21,31 @@
 namespace pslam::tracking {
 
 struct InitializerParams {
-  int minKeypoints = 100;       ///< a frame with fewer keypoints cannot be a reference (ORB-SLAM: 100)
-  int minMatches = 100;         ///< fewer SearchForInitialization matches: the current frame becomes the reference
-  int minMapPoints = 100;       ///< fewer points after global BA: the initial map is discarded (ORB-SLAM: 100)
-  int maxReferenceAge = 30;     ///< frames: an older reference is replaced (not in ORB-SLAM; avoids stale references)
-  float windowHalfSize = 100.f; ///< SearchForInitialization window (px)
-  float nnRatio = 0.9f;         ///< SearchForInitialization ratio
+  int minKeypoints = 100;
+  int minMatches = 100;
+  int minMapPoints = 100;
+  int maxReferenceAge = 30;
+  float windowHalfSize = 100.f;
+  float nnRatio = 0.9f;
   /// ORB-SLAM2 (monocular) extracts featureFactor x nFeatures keypoints while initializing: only level-0
   /// keypoints take part in SearchForInitialization, and enough matches are needed to keep a reference frame
   /// long enough for parallax to build up.
   double featureFactor = 2.0;
   geometry::TwoViewParams twoView;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, minKeypoints, atLeast(8), "a frame with fewer keypoints cannot be a reference (ORB-SLAM: 100)");
+    PSLAM_FIELD(v, minMatches, atLeast(8), "fewer SearchForInitialization matches: the current frame becomes the reference");
+    PSLAM_FIELD(v, minMapPoints, atLeast(1), "fewer points after global BA: the initial map is discarded (ORB-SLAM: 100)");
+    PSLAM_FIELD(v, maxReferenceAge, atLeast(1), "frames: an older reference is replaced (not in ORB-SLAM)");
+    PSLAM_FIELD(v, windowHalfSize, greaterThan(0), "SearchForInitialization window (px)");
+    PSLAM_FIELD(v, nnRatio, inLeftOpen(0, 1), "SearchForInitialization ratio");
+    PSLAM_FIELD(v, featureFactor, inClosed(1, 10), "keypoints extracted while initializing = this x nFeatures");
+    v.flat(twoView);
+  }
+  PSLAM_PARAMS("Initializer")
 };
 
 /// The "twoView" MapInitializer.

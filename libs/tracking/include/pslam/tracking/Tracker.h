@@ -27,25 +27,45 @@
 namespace pslam::tracking {
 
 struct TrackerParams {
-  float motionModelRadius = 15.f;   ///< frame-to-frame search radius factor (ORB-SLAM monocular th = 15)
-  int minMotionMatches = 20;        ///< below this the search is repeated with twice the radius
-  int minReferenceMatches = 15;     ///< reference-keyframe / relocalization descriptor matches needed
-  float referenceRatio = 0.7f;      ///< ratio test of the reference-keyframe descriptor matching (SearchByBoW)
-  int referenceMaxDistance = features::kOrbThLow;  ///< TH_LOW
-  int minPoseInliers = 10;          ///< inliers after motion/reference pose optimization
-  float localMapRadius = 1.f;       ///< local-map search radius factor (ORB-SLAM th = 1; 5 right after relocalization)
-  float localMapRatio = 0.8f;       ///< same-level ratio test of the local-map search
+  float motionModelRadius = 15.f;
+  int minMotionMatches = 20;
+  int minReferenceMatches = 15;
+  float referenceRatio = 0.7f;
+  int referenceMaxDistance = features::kOrbThLow;
+  int minPoseInliers = 10;
+  float localMapRadius = 1.f;
+  float localMapRatio = 0.8f;
   int maxLocalKeyFrames = 80;
-  int minLocalMapInliers = 30;      ///< tracking succeeds with this many inliers after local-map tracking
-  int minInliersAfterReloc = 50;    ///< ... within maxFrames after a relocalization
-  int relocalizationCandidates = 5; ///< keyframes with most descriptor matches tried by PnP
-  int resetKeyFrames = 5;           ///< lost with at most this many keyframes: reset and re-initialize
+  int minLocalMapInliers = 30;
+  int minInliersAfterReloc = 50;
+  int relocalizationCandidates = 5;
+  int resetKeyFrames = 5;
   KeyFrameDecisionParams keyFrames;
   geometry::PnpParams pnp;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, motionModelRadius, greaterThan(0), "frame-to-frame search radius factor (ORB-SLAM monocular th = 15)");
+    PSLAM_FIELD(v, minMotionMatches, atLeast(1), "below this the search is repeated with twice the radius");
+    PSLAM_FIELD(v, minReferenceMatches, atLeast(4), "reference-keyframe / relocalization descriptor matches needed");
+    PSLAM_FIELD(v, referenceRatio, inLeftOpen(0, 1), "ratio test of the reference-keyframe matching (SearchByBoW)");
+    PSLAM_FIELD(v, referenceMaxDistance, inClosed(0, 256), "descriptor distance of the reference matching (TH_LOW)");
+    PSLAM_FIELD(v, minPoseInliers, atLeast(3), "inliers after motion/reference pose optimization");
+    PSLAM_FIELD(v, localMapRadius, greaterThan(0), "local-map search radius factor (ORB-SLAM th = 1; 5 after relocalization)");
+    PSLAM_FIELD(v, localMapRatio, inLeftOpen(0, 1), "same-level ratio test of the local-map search");
+    PSLAM_FIELD(v, maxLocalKeyFrames, atLeast(1), "keyframes of the local map (ORB-SLAM 80)");
+    PSLAM_FIELD(v, minLocalMapInliers, atLeast(3), "tracking succeeds with this many inliers after local-map tracking");
+    PSLAM_FIELD(v, minInliersAfterReloc,
+                satisfies([this](int n) { return n >= minLocalMapInliers; }, "must be >= minLocalMapInliers"),
+                "... within keyFrames.maxFrames after a relocalization");
+    PSLAM_FIELD(v, relocalizationCandidates, atLeast(1), "keyframes with most descriptor matches tried by PnP");
+    PSLAM_FIELD(v, resetKeyFrames, atLeast(2), "lost with at most this many keyframes: reset and re-initialize");
+    // Both have a minInliers: both are prefixed (keyFrames.minInliers, pnp.minInliers).
+    PSLAM_NESTED(v, keyFrames);
+    PSLAM_NESTED(v, pnp);
+  }
+  PSLAM_PARAMS("Tracking")
 };
 
 enum class FrameStatus { Initializing, Tracking, Lost, Relocalized };

@@ -1,0 +1,33 @@
+#pragma once
+// The map-point model of a SLAM run, one section [PointModel] (doc/semantic_model.md): which model
+// (heuristic = ORB-SLAM*, masking, probabilistic; Table 3.3), ORB-SLAM's culling constants, the keypoint model
+// of §3.3 and the matching accuracies of §3.2. Script-stable: `--set PointModel.model=probabilistic`.
+#include "pslam/core/Params.h"
+#include "pslam/landmarks/KeypointModel.h"
+#include "pslam/landmarks/MapPointPolicy.h"
+#include "pslam/landmarks/MatchingAccuracy.h"
+
+namespace pslam::landmarks {
+
+struct PointModelParams {
+  /// Default heuristic: a SLAM run is ORB-SLAM* unless the config names a chapter-3 model.
+  MapPointPolicyParams policy = [] {
+    MapPointPolicyParams p;
+    p.model = MapPointModel::Heuristic;
+    return p;
+  }();
+  KeypointModelParams keypoint;    ///< used by the masking and probabilistic models
+  MatchingAccuracyParams matching;
+
+  /// Keys: model, minFoundRatio, ... (policy), initialCount, psiMin, A_static, ... (keypoint),
+  /// hammingMaxDistance, photometricMaxSsd (matching): all flat.
+  template <class V>
+  void visitFields(V& v) {
+    v.flat(policy);
+    v.flat(keypoint);
+    v.flat(matching);
+  }
+  PSLAM_PARAMS("PointModel")
+};
+
+}  // namespace pslam::landmarks

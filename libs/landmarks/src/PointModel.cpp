@@ -1,0 +1,3 @@
+#include "pslam/landmarks/PointModel.h"
+
+PSLAM_DEFINE_PARAMS(pslam::landmarks::PointModelParams)
