@@ -206,6 +206,35 @@ TEST(SynthApp, OutputsFollowTheRawlogContract) {
   EXPECT_TRUE(fs::exists(d / "seq_synth.json"));
 }
 
+TEST(SynthApp, JamVehiclesAreDynamicInTheSemanticChannel) {
+  // Moving and parked vehicles alike carry Cityscapes car/truck/bus labels, hence SEMANTIC "dynamic"
+  // (Table 3.1): the chapter-3 models and masking see them as potentially dynamic.
+  const fs::path d = tempDir("jam");
+  SynthOptions o = small("jam", d, 2, 3);
+  o.width = 96;
+  o.height = 72;
+  SynthApp(o).run();
+  datasets::RawlogReader reader(d / "jam.rawlog");
+  datasets::Frame f;
+  while (reader.next(f)) {
+    const cv::Mat labels = cv::imread((d / "jam_Labels" / cv::format("LABEL_%06zu.png", f.index)).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(labels.size(), f.semantic.size());
+    int vehicles = 0, dynamic = 0;
+    for (int y = 0; y < labels.rows; ++y)
+      for (int x = 0; x < labels.cols; ++x) {
+        const int id = labels.at<std::uint8_t>(y, x);
+        const bool vehicle = id == int(TrainId::Car) || id == int(TrainId::Truck) || id == int(TrainId::Bus);
+        vehicles += vehicle;
+        dynamic += f.semantic.at<cv::Vec3b>(y, x)[1] == 255;
+        if (vehicle) {
+          ASSERT_EQ(f.semantic.at<cv::Vec3b>(y, x), cv::Vec3b(0, 255, 0)) << x << "," << y;
+        }
+      }
+    EXPECT_EQ(dynamic, vehicles) << "frame " << f.index << ": only vehicles are dynamic";
+    EXPECT_GT(vehicles, labels.total() / 10) << "frame " << f.index << ": dense traffic";
+  }
+}
+
 TEST(SynthApp, GroundTruthReprojectsDepthBetweenFrames) {
   // Back-project frame 0 with its depth and ground-truth pose, project into frame 6: the predicted depth must
   // match frame 6's depth on static surfaces. This checks the pose convention (camera-to-world) end to end.

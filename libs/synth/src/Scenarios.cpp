@@ -145,25 +145,39 @@ Scenario makeRoom(std::uint32_t seed, bool lowTextureVariant) {
 
 // ------------------------------------------------------------------------------------------------ street
 struct Vehicle {
-  enum Kind { Car, Truck, Bus };
+  enum Kind { Car, Truck, Bus, Van };
+  /// Extent of the body ahead of / behind the object origin along its x axis (m).
+  static double front(Kind k) { return k == Car ? 2.1 : k == Truck ? 4.7 : k == Bus ? 5.75 : 2.9; }
+  static double rear(Kind k) { return k == Car ? 2.1 : k == Truck ? 4.6 : k == Bus ? 5.75 : 2.4; }
 };
 
-SceneObject makeVehicleObject(Scene& s, Dice& dice, Vehicle::Kind kind, const std::string& name) {
+/// A vehicle of boxes. `livery` (the jam's vehicles; the street keeps plain ones): printed wraps on car doors
+/// and a sticker on the back, advertisement panels under bus windows, cargo sides printed all over with sharp
+/// artwork, and cargo rear doors with a logo, locking bars and a plate.
+SceneObject makeVehicleObject(Scene& s, Dice& dice, Vehicle::Kind kind, const std::string& name,
+                              bool livery = false) {
   SceneObject o;
   o.name = name;
   const float paint = static_cast<float>(dice.uniform(0.08, 0.9));
+  const float lv = livery ? 1.f : 0.f;
   if (kind == Vehicle::Car) {
-    const int body = s.addMaterial(material(TextureKind::CarBody, TrainId::Car, dice.seed(), paint, 0.05f));
+    const int body = s.addMaterial(material(TextureKind::CarBody, TrainId::Car, dice.seed(), paint, 0.05f, {0.f, lv}));
     const int cabin = s.addMaterial(material(TextureKind::CarCabin, TrainId::Car, dice.seed(), paint, 0.05f));
     o.parts.push_back(part({4.2, 1.8, 0.8}, {0, 0, 0.15}, body));
     o.parts.push_back(part({2.3, 1.6, 0.55}, {-0.3, 0, 0.95}, cabin));
   } else if (kind == Vehicle::Truck) {
-    const int cab = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(), paint, 0.05f, {1.f}));
-    const int cargo = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(), 0.75f, 0.05f, {0.f}));
+    const int cab = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(), paint, 0.05f, {1.f, lv}));
+    const int cargo = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(), 0.75f, 0.05f, {0.f, lv}));
     o.parts.push_back(part({2.0, 2.4, 2.6}, {3.7, 0, 0.4}, cab));
     o.parts.push_back(part({7.2, 2.5, 3.0}, {-1.0, 0, 0.5}, cargo));
+  } else if (kind == Vehicle::Van) {
+    const int cab = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(), paint, 0.05f, {1.f, lv}));
+    const int box = s.addMaterial(material(TextureKind::BusBody, TrainId::Truck, dice.seed(),
+                                           static_cast<float>(dice.uniform(0.55, 0.85)), 0.05f, {0.f, lv}));
+    o.parts.push_back(part({1.7, 2.0, 1.9}, {2.05, 0, 0.3}, cab));
+    o.parts.push_back(part({3.6, 2.1, 2.4}, {-0.6, 0, 0.3}, box));
   } else {
-    const int body = s.addMaterial(material(TextureKind::BusBody, TrainId::Bus, dice.seed(), paint, 0.05f, {1.f}));
+    const int body = s.addMaterial(material(TextureKind::BusBody, TrainId::Bus, dice.seed(), paint, 0.05f, {1.f, lv}));
     o.parts.push_back(part({11.5, 2.5, 3.0}, {0, 0, 0.3}, body));
   }
   return o;
@@ -327,6 +341,188 @@ Scenario makeStreet(std::uint32_t seed, double duration) {
   return sc;
 }
 
+// ------------------------------------------------------------------------------------------------ jam
+// Traffic jam on a two-lane motorway between vegetation (Virtual KITTI 20 as thesis §3.5.5.2 describes it).
+// Layout (x along the road, y left, z up): carriageway |y| < 3.5 with the ego lane at y = -1.75 and the left
+// lane at +1.75; a hard shoulder y in [-7.2, -3.5] with cars parked along the first stretch; guardrails at
+// y = -7 and +3.9; a hedge at y = +4.6 and tree lines beyond it and above an embankment on the right.
+//
+// Traffic moves in stop-and-go waves: every vehicle of a lane follows the lane's speed profile D shifted in
+// time, x(t) = x0 + D(t + tau) - D(tau), vehicles further ahead with a larger tau (the wave reaches them
+// earlier). With start positions chained by the stand-still gap plus D(tau_a) - D(tau_b), the gap to the
+// vehicle ahead is gapMin + D(t + tau_a) - D(t + tau_b) >= gapMin at all times: nobody collides.
+
+/// Ego lane profile (t, v): drive along the parked cars, brake, stand 7 s, creep, stop-and-go; then 20 s cycles.
+const std::vector<std::pair<double, double>> kJamEgoKeys = {{0, 5},  {5, 5},  {9, 0},  {16, 0}, {19, 3},
+                                                           {21, 3}, {23, 1}, {24, 1}, {28, 6}};
+/// Left lane: crawls while the ego car approaches (it overtakes the queue) and while the ego car stands (the
+/// queue, a bus first, passes it), then moves with the ego lane.
+const std::vector<std::pair<double, double>> kJamLeftKeys = {{0, 1.0},  {9, 1.0},   {11, 1.6},  {16, 1.6},
+                                                            {19, 3.2}, {21, 3.0},  {23, 1.2},  {24, 1.2}, {28, 5.5}};
+constexpr double kJamStopBegin = 9.0;  // the ego car stands still in [9, 16] s
+constexpr double kJamLeadTau = 4.0;   // the lead truck runs 4 s ahead in the wave: it pulls away at 12 s
+constexpr double kJamEgoY = -1.75, kJamLeftY = 1.75, kJamParkedY = -5.0;
+constexpr double kJamParkedFrom = -8.0, kJamParkedTo = 34.0;  // ends where the ego car stops: out of view then
+constexpr double kJamEgoFront = 1.9;  // ego car's front bumper ahead of the camera (m)
+
+/// Speed profile from scripted keys, continued until `until` with cycles of 20 s: cruise 8 s, brake 3 s,
+/// stand 5 s, accelerate 4 s to `cycleSpeed`.
+SpeedProfile jamProfile(const std::vector<std::pair<double, double>>& keys, double until, double cycleSpeed) {
+  std::vector<double> t, v;
+  for (const auto& [tk, vk] : keys) {
+    t.push_back(tk);
+    v.push_back(vk);
+  }
+  while (t.back() < until) {
+    const double t0 = t.back(), v0 = v.back();
+    for (const auto& [dt, vk] : std::initializer_list<std::pair<double, double>>{
+             {8.0, v0}, {11.0, 0.0}, {16.0, 0.0}, {20.0, cycleSpeed}}) {
+      t.push_back(t0 + dt);
+      v.push_back(vk);
+    }
+  }
+  return SpeedProfile(t, v, 0.0);
+}
+
+/// `traffic` = false: the control scene "jam-static", identical except that no vehicle moves (the parked
+/// cars stay), which measures what the static background alone allows.
+Scenario makeJam(std::uint32_t seed, double duration, bool traffic) {
+  Dice dice(seed);
+  Scenario sc;
+  sc.info = scenarioInfo(traffic ? "jam" : "jam-static");
+  Scene& s = sc.scene;
+  s.hasSky = true;
+  // The profiles cover t + tau of the vehicles far ahead. A fixed 1 km road with traffic covers sequences up to
+  // about 4 min, so shorter ones share one scene; longer ones extend it (each kind of content that grows with
+  // the length draws from its own random stream, so the extension does not reshuffle what is there).
+  const double horizon = std::max(duration, 300.0) + 300.0;
+  const SpeedProfile ego = jamProfile(kJamEgoKeys, horizon, 5.0);
+  const SpeedProfile left = jamProfile(kJamLeftKeys, horizon, 5.5);
+  const double xStart = -60.0;
+  const double xEnd = std::max(1000.0, ego.distance(duration) + 300.0);
+
+  // ---- static scene: low-contrast asphalt, repetitive markings, guardrails and vegetation
+  const int roadMat = s.addMaterial(material(TextureKind::Highway, TrainId::Road, dice.seed(), 0.3f, 0.35f,
+                                             {3.5f, 2.f, 6.f, 18.f}));
+  s.addFloor(xStart, -3.5, xEnd, 3.5, 0, roadMat);
+  const int shoulder = s.addMaterial(material(TextureKind::Plaster, TrainId::Road, dice.seed(), 0.3f, 0.3f));
+  s.addFloor(xStart, -7.2, xEnd, -3.5, 0, shoulder);
+  const int verge = s.addMaterial(material(TextureKind::Plaster, TrainId::Terrain, dice.seed(), 0.36f, 0.25f));
+  s.addFloor(xStart, 3.5, xEnd, 4.6, 0, verge);
+  // Embankment rising from the right guardrail to the tree line.
+  const Vector3d slope(0, -5.8, 3.4);
+  s.addRect({xStart, -7.2, 0}, Vector3d::UnitX(), slope.normalized(), xEnd - xStart, slope.norm(), verge);
+  const int hedgeMat = s.addMaterial(material(TextureKind::Hedge, TrainId::Vegetation, dice.seed(), 0.28f, 0.5f, {3.2f}));
+  s.addWall({xStart, 4.6}, {xEnd, 4.6}, 0, 2.6, hedgeMat);
+  const int treesL = s.addMaterial(material(TextureKind::Hedge, TrainId::Vegetation, dice.seed(), 0.22f, 0.5f, {7.3f}));
+  s.addWall({xStart, 11.0}, {xEnd, 11.0}, 0, 12.0, treesL);
+  const int treesR = s.addMaterial(material(TextureKind::Hedge, TrainId::Vegetation, dice.seed(), 0.24f, 0.5f, {6.1f}));
+  s.addWall({xStart, -13.0}, {xEnd, -13.0}, 3.3, 10.0, treesR);
+  const int beam = s.addMaterial(material(TextureKind::Guardrail, TrainId::Fence, dice.seed(), 0.55f, 0.04f, {2.0f}));
+  const int post = s.addMaterial(material(TextureKind::Plaster, TrainId::Fence, dice.seed(), 0.4f, 0.05f));
+  for (double y : {-7.0, 3.9}) {
+    s.addWall({xStart, y}, {xEnd, y}, 0.5, 0.32, beam);
+    const double behind = y < 0 ? -0.07 : 0.07;
+    for (double x = std::ceil(xStart / 2.0) * 2.0; x < xEnd; x += 2.0)
+      s.addStaticBox("guardrail post", {x, y + behind, 0}, {0.12, 0.1, 0.72}, 0, post);
+  }
+
+  // ---- traffic
+  auto addVehicle = [&](Dice& looks, Vehicle::Kind kind, double lane, const SpeedProfile& profile, double tau,
+                        double x0, const std::string& name, bool moving) {
+    SceneObject o = makeVehicleObject(s, looks, kind, name, true);
+    o.moving = moving;
+    const double d0 = profile.distance(tau);
+    o.T_world_object = [profile, tau, x0, d0, lane](double t) {
+      return poseXYYaw(x0 + profile.distance(t + tau) - d0, lane, 0.0);
+    };
+    s.addObject(std::move(o));
+  };
+  auto pickKind = [](Dice& d) {
+    const double u = d.uniform(0, 1);
+    return u < 0.4 ? Vehicle::Car : u < 0.62 ? Vehicle::Van : u < 0.88 ? Vehicle::Truck : Vehicle::Bus;
+  };
+  const double reach = xEnd - 60.0;  // vehicles ahead up to here (at their start positions)
+  if (traffic) {
+    // Ego lane: a truck ahead of the ego car (its rear fills the view; it pulls away while the ego car still
+    // waits), then a queue. Stand-still gaps 3 m, bumper to bumper.
+    Dice queue(seed, 51U);
+    const double gapMin = 3.0, dTau = 1.8;
+    double tau = kJamLeadTau, prevTau = 0.0, prevFront = kJamEgoFront;
+    Vehicle::Kind kind = Vehicle::Truck;
+    for (int k = 0; prevFront < reach; ++k) {
+      const double rearPos = prevFront + gapMin + ego.distance(tau) - ego.distance(prevTau);
+      const double x0 = rearPos + Vehicle::rear(kind);
+      addVehicle(queue, kind, kJamEgoY, ego, tau, x0, k == 0 ? "lead truck" : "queue vehicle", true);
+      prevFront = x0 + Vehicle::front(kind);
+      prevTau = tau;
+      tau += dTau;
+      kind = pickKind(queue);
+    }
+  }
+  if (traffic) {
+    // Left lane: a crawling queue the ego car overtakes before it stops; a bus of that queue is level with the
+    // ego camera when the ego car stops and passes it while it waits, a truck ahead of the bus pulls away.
+    Dice lane(seed, 52U);
+    const double gapMin = 2.5, dTau = 0.8;
+    struct Slot {
+      Vehicle::Kind kind;
+      double tau, x0;
+      std::string name;
+    };
+    // The bus (tau = 0): its front 1 m behind the camera at the stop.
+    const double busX0 = ego.distance(kJamStopBegin) - 1.0 - Vehicle::front(Vehicle::Bus) -
+                         (left.distance(kJamStopBegin) - left.distance(0.0));
+    std::vector<Slot> slots = {{Vehicle::Bus, 0.0, busX0, "passing bus"}};
+    for (double front = busX0 + Vehicle::front(Vehicle::Bus), tau = 0.0; front < reach;) {
+      const Vehicle::Kind kind = slots.size() == 1 ? Vehicle::Truck : pickKind(lane);
+      const double t2 = tau + dTau;
+      const double x0 = front + gapMin + left.distance(t2) - left.distance(tau) + Vehicle::rear(kind);
+      slots.push_back({kind, t2, x0, slots.size() == 1 ? "left truck" : "left lane vehicle"});
+      front = x0 + Vehicle::front(kind);
+      tau = t2;
+    }
+    for (double rearEdge = busX0 - Vehicle::rear(Vehicle::Bus), tau = 0.0; rearEdge > xStart;) {
+      const Vehicle::Kind kind = pickKind(lane);
+      const double t2 = tau - dTau;
+      const double x0 = rearEdge - gapMin - (left.distance(tau) - left.distance(t2)) - Vehicle::front(kind);
+      slots.push_back({kind, t2, x0, "left lane vehicle"});
+      rearEdge = x0 - Vehicle::rear(kind);
+      tau = t2;
+    }
+    for (const Slot& sl : slots) addVehicle(lane, sl.kind, kJamLeftY, left, sl.tau, sl.x0, sl.name, true);
+  }
+  {
+    // Parked cars on the hard shoulder along the first stretch: class car/truck (potentially dynamic, so
+    // masking discards them) but static, close and well textured.
+    Dice parked(seed, 31U);
+    const SpeedProfile still({0.0}, {0.0}, 0.0);
+    for (double x = kJamParkedFrom; x < kJamParkedTo; x += parked.uniform(5.4, 7.2)) {
+      if (!parked.chance(0.85)) continue;
+      const Vehicle::Kind kind = parked.chance(0.15) ? Vehicle::Van : Vehicle::Car;
+      addVehicle(parked, kind, kJamParkedY + parked.uniform(-0.15, 0.15), still, 0.0, x, "parked car", false);
+    }
+  }
+
+  Jitter j;
+  j.angle = 0.003;
+  j.position = 0.01;
+  j.frequency = 2.0;
+  j.seed = dice.seed();
+  sc.T_world_cam = [ego, j](double t) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = lookAtRotation(Vector3d(20.0, 0.0, -0.8), Vector3d::UnitZ());
+    T.translation() = Vector3d(ego.distance(t), kJamEgoY, 1.6);
+    // Road vibration scales with speed: the camera is exactly still while the car stands.
+    Jitter jj = j;
+    const double k = std::min(1.0, ego.speed(t) / 5.0);
+    jj.angle *= k;
+    jj.position *= k;
+    return applyJitter(T, jj, t);
+  };
+  return sc;
+}
+
 // ------------------------------------------------------------------------------------------------ corridor
 /// Point and tangent on the rounded rectangle [0,X]x[0,Y] (corner radius r), arc length s counter-clockwise
 /// from (r, 0).
@@ -409,7 +605,7 @@ Scenario makeCorridor(std::uint32_t seed) {
 }  // namespace
 
 const std::vector<std::string>& scenarioNames() {
-  static const std::vector<std::string> names = {"room", "lowtexture", "street", "corridor"};
+  static const std::vector<std::string> names = {"room", "lowtexture", "street", "corridor", "jam", "jam-static"};
   return names;
 }
 
@@ -444,6 +640,17 @@ ScenarioInfo scenarioInfo(const std::string& name) {
     i.depthUnit = 1.0 / 2000.0;  // the 20 m straights exceed the 13 m range of 1/5000 m units
     i.focalAt640 = 450.0;
     i.defaultFrames = static_cast<int>(std::ceil((corridorLoopLength() / 1.2 + 0.75 + 1.0) * 15));
+  } else if (name == "jam" || name == "jam-static") {
+    i.description = name == "jam"
+                        ? "stop-and-go traffic jam on a motorway between homogeneous vegetation, guardrails and dashed "
+                          "lanes; well-textured trucks, vans and buses around the ego car, which stands 7 s while "
+                          "they pull away or pass; a stretch of parked cars (Virtual KITTI 20-like)"
+                        : "the jam without its moving traffic (same road, vegetation, parked cars and ego motion): "
+                          "the control for what the static background alone allows";
+    i.fps = 10;
+    i.depthUnit = 1.0 / 1000.0;
+    i.focalAt640 = 375.0;
+    i.defaultFrames = 300;
   } else {
     std::string known;
     for (const auto& n : scenarioNames()) known += (known.empty() ? "" : ", ") + n;
@@ -457,6 +664,7 @@ Scenario makeScenario(const std::string& name, std::uint32_t seed, double durati
   if (name == "room") return makeRoom(seed, false);
   if (name == "lowtexture") return makeRoom(seed, true);
   if (name == "street") return makeStreet(seed, duration);
+  if (name == "jam" || name == "jam-static") return makeJam(seed, duration, name == "jam");
   return makeCorridor(seed);
 }
 

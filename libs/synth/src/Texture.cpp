@@ -81,6 +81,15 @@ double textInk(double s, double t, double lineHeight, std::uint32_t seed, double
   return inRow * inWord;
 }
 
+/// Printed artwork (advertisements, vehicle wraps): sharp-edged high-contrast blobs of `frequency` cycles/m
+/// with text lines of height `line` over the part below `textBelow` (surface t, metres).
+double artwork(const SurfacePoint& p, std::uint32_t seed, double frequency, double line, double textBelow) {
+  const double blob = 0.5 + 0.5 * std::tanh(7.0 * fractalNoise(p.s, p.t, seed, frequency, 5, p.footprint));
+  const double art = lerp(0.1, 0.9, blob);
+  if (p.t > textBelow) return art;
+  return lerp(art, 0.05, 0.9 * textInk(p.s, p.t, line, seed + 1, p.footprint));
+}
+
 float bricks(const Material& m, const SurfacePoint& p) {
   const double L = 0.25, H = 0.075, gap = 0.012;
   std::int64_t row = 0, col = 0;
@@ -149,6 +158,15 @@ float road(const Material& m, const SurfacePoint& p) {
 float carBody(const Material& m, const SurfacePoint& p) {
   double a = m.albedo * (1.0 + 0.05 * fractalNoise(p.s, p.t, m.seed, 2.0, 3, p.footprint));
   const double fp = p.footprint;
+  if (m.param[1] > 0.5f) {  // livery: a printed wrap along the doors, a sticker on the back
+    if (p.face == 2 || p.face == 3) {
+      const double wrap = rectCoverage(p, 0.12 * p.sizeS, 0.88 * p.sizeS, 0.2 * p.sizeT, 0.9 * p.sizeT);
+      if (wrap > 0) a = lerp(a, artwork(p, m.seed + 40, 3.0, 0.08, 0.45 * p.sizeT), 0.85 * wrap);
+    } else if (p.face == 0) {
+      const double sticker = rectCoverage(p, 0.6 * p.sizeS, 0.85 * p.sizeS, 0.78 * p.sizeT, 0.95 * p.sizeT);
+      if (sticker > 0) a = lerp(a, artwork(p, m.seed + 41, 12.0, 0.03, 1e9), sticker);
+    }
+  }
   if (p.face == 2 || p.face == 3) {  // sides: door seams, sills, wheels
     const double seam = std::max({interval(p.s, 0.42 * p.sizeS - 0.006, 0.42 * p.sizeS + 0.006, fp),
                                   interval(p.s, 0.66 * p.sizeS - 0.006, 0.66 * p.sizeS + 0.006, fp),
@@ -188,6 +206,31 @@ float carCabin(const Material& m, const SurfacePoint& p) {
   return static_cast<float>(lerp(m.albedo, glass, inGlass));
 }
 
+/// Rear doors of a cargo box (param[1] of BusBody without windows): two doors with a seam, locking bars,
+/// hinges, a printed logo block with text, a number plate and tail lamps. `a` is the plain paint.
+double cargoRear(const Material& m, const SurfacePoint& p, double a) {
+  const double fp = p.footprint, W = p.sizeS, H = p.sizeT;
+  const double logo = rectCoverage(p, 0.18 * W, 0.82 * W, 0.5 * H, 0.86 * H);
+  if (logo > 0) {
+    const double blob = 0.5 + 0.5 * std::tanh(4.0 * fractalNoise(p.s, p.t, m.seed + 21, 1.6, 5, fp));
+    const double ink = textInk(p.s - 0.18 * W, p.t - 0.5 * H, 0.16, m.seed + 22, fp);
+    const double inLower = p.t < 0.62 * H ? 1.0 : 0.0;
+    a = lerp(a, lerp(lerp(0.12, 0.9, blob), 0.05, ink * inLower), logo);
+  }
+  double dark = interval(p.s, 0.5 * W - 0.012, 0.5 * W + 0.012, fp);  // door seam
+  for (double cs : {0.3 * W, 0.42 * W, 0.58 * W, 0.7 * W})            // locking bars
+    dark = std::max(dark, interval(p.s, cs - 0.018, cs + 0.018, fp) * interval(p.t, 0.08 * H, 0.95 * H, fp));
+  for (double ct : {0.2 * H, 0.5 * H, 0.8 * H})                        // hinges
+    for (double cs : {0.03 * W, 0.97 * W}) dark = std::max(dark, rectCoverage(p, cs - 0.04, cs + 0.04, ct - 0.05, ct + 0.05));
+  a = lerp(a, 0.08, 0.85 * dark);
+  const double c = 0.5 * W;
+  const double plate = rectCoverage(p, c - 0.26, c + 0.26, 0.02 * H + 0.05, 0.02 * H + 0.16);
+  if (plate > 0) a = lerp(a, lerp(0.85, 0.1, textInk(p.s - (c - 0.24), p.t - 0.02 * H - 0.06, 0.09, m.seed + 23, fp)), plate);
+  for (double cs : {0.08 * W, 0.92 * W})  // tail lamps
+    a = lerp(a, 0.3, rectCoverage(p, cs - 0.08, cs + 0.08, 0.03 * H, 0.03 * H + 0.22));
+  return a;
+}
+
 float busBody(const Material& m, const SurfacePoint& p) {
   const double fp = p.footprint;
   double a = m.albedo * (1.0 + 0.05 * fractalNoise(p.s, p.t, m.seed, 1.0, 3, fp));
@@ -198,6 +241,14 @@ float busBody(const Material& m, const SurfacePoint& p) {
       double band = rectCoverage(p, 0.3, p.sizeS - 0.3, 0.45 * p.sizeT, 0.88 * p.sizeT);
       if (fp < 0.05) band *= 1.0 - interval(std::fmod(p.s, 1.3), 0.0, 0.1, fp);
       a = lerp(a, 0.12 + 0.12 * (0.5 + 0.5 * fractalNoise(p.s, p.t, m.seed + 1, 0.5, 3, fp)), band);
+      if (m.param[1] > 0.5f) {  // livery: an advertisement panel below the windows
+        const double panel = rectCoverage(p, 1.9, p.sizeS - 2.3, 0.14 * p.sizeT, 0.4 * p.sizeT);
+        if (panel > 0) a = lerp(a, artwork(p, m.seed + 40, 2.0, 0.12, 0.27 * p.sizeT), panel);
+      }
+    } else if (m.param[1] > 0.5f) {
+      // Livery: the whole cargo side printed, sharp artwork with text lines in its lower part.
+      const double ad = rectCoverage(p, 0.3, p.sizeS - 0.3, 0.22 * p.sizeT, 0.94 * p.sizeT);
+      if (ad > 0) a = lerp(a, artwork(p, m.seed + 2, 1.4, 0.2, 0.5 * p.sizeT), ad);
     } else {
       // Cargo box with a printed advertisement: large high-contrast blobs and text.
       const double ad = rectCoverage(p, 0.8, p.sizeS - 0.8, 0.3 * p.sizeT, 0.9 * p.sizeT);
@@ -213,6 +264,8 @@ float busBody(const Material& m, const SurfacePoint& p) {
     }
   } else if (windows || p.face == 1) {
     a = lerp(a, 0.15, rectCoverage(p, 0.15, p.sizeS - 0.15, 0.45 * p.sizeT, 0.92 * p.sizeT));
+  } else if (m.param[1] > 0.5f && p.face == 0) {
+    a = cargoRear(m, p, a);
   }
   return static_cast<float>(a);
 }
@@ -290,6 +343,102 @@ float posterWall(const Material& m, const SurfacePoint& p) {
   const double inner = rectCoverage(p, s0 + 0.03, s0 + w - 0.03, t0 + 0.03, t0 + h - 0.03);
   content = lerp(0.92, content, inner);
   return static_cast<float>(lerp(a, content, cov));
+}
+
+/// Value noise whose lattice wraps every `period` cells along x: the pattern repeats exactly.
+float periodicValueNoise(double x, double y, std::uint32_t seed, std::int64_t period) {
+  const double fx = fastFloor(x), fy = fastFloor(y);
+  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
+  auto wrap = [period](std::int64_t i) { return ((i % period) + period) % period; };
+  const float u0 = static_cast<float>(x - fx), v0 = static_cast<float>(y - fy);
+  const float u = u0 * u0 * (3.0f - 2.0f * u0), v = v0 * v0 * (3.0f - 2.0f * v0);
+  const float a = lattice(wrap(ix), iy, seed), b = lattice(wrap(ix + 1), iy, seed);
+  const float c = lattice(wrap(ix), iy + 1, seed), d = lattice(wrap(ix + 1), iy + 1, seed);
+  const float ab = a + (b - a) * u, cd = c + (d - c) * u;
+  return ab + (cd - ab) * v;
+}
+
+float hedge(const Material& m, const SurfacePoint& p) {
+  // param: [0] repeat length along s (m). The fractal noise lives on a lattice that wraps every repeat, so every
+  // stretch of param[0] metres looks the same (instanced vegetation): many similar descriptors, few unique ones.
+  // Octaves are band-limited by the footprint as in fractalNoise.
+  const double P = m.param[0] > 0 ? m.param[0] : 3.0;
+  const double u = p.s / P;
+  float sum = 0, norm = 0, amp = 1;
+  std::int64_t cells = std::max<std::int64_t>(1, std::llround(1.5 * P));  // about 1.5 cycles per metre
+  for (int o = 0; o < 6; ++o, amp *= 0.55f, cells *= 2) {
+    norm += amp;
+    const double f = static_cast<double>(cells) / P;  // cycles per metre
+    const double r = f * p.footprint;
+    const double w = r < 0.15 ? 1.0 : (r > 0.3 ? 0.0 : (0.3 - r) / 0.15);
+    if (w <= 0) continue;
+    sum += amp * static_cast<float>(w) *
+           (periodicValueNoise(u * cells + 3.7 * o, p.t * f - 9.71 * o, m.seed + 101U * o, cells) - 0.5f);
+  }
+  const double n = 2.0 * sum / norm;
+  // Darker towards the ground (shade under the bushes), no other structure.
+  const double base = m.albedo * (1.0 - 0.25 * interval(p.t, -1.0, 0.3, p.footprint));
+  return static_cast<float>(base * (1.0 + m.contrast * std::tanh(2.0 * n)));
+}
+
+/// Asphalt aggregate: light stones of 2-5 cm and varied brightness scattered over a 0.1 m grid (about one in
+/// four cells), blended into `base`; towards the resolution limit they fade into their mean brightening.
+double aggregate(double s, double t, std::uint32_t seed, double fp, double base) {
+  constexpr double cell = 0.1, density = 0.25, lift = 0.16;
+  const double meanCover = density * M_PI * 0.0175 * 0.0175 / (cell * cell) * 0.75;
+  if (fp >= 0.03) return base + lift * meanCover;
+  const auto ci = static_cast<std::int64_t>(std::floor(s / cell)), cj = static_cast<std::int64_t>(std::floor(t / cell));
+  double stone = 0;
+  for (std::int64_t di = -1; di <= 1; ++di)
+    for (std::int64_t dj = -1; dj <= 1; ++dj) {
+      const std::int64_t i = ci + di, j = cj + dj;
+      if (hashUnit(i, j, seed) > density) continue;
+      const double cs = (i + 0.2 + 0.6 * hashUnit(i, j, seed + 1)) * cell;
+      const double ct = (j + 0.2 + 0.6 * hashUnit(i, j, seed + 2)) * cell;
+      const double r = 0.01 + 0.015 * hashUnit(i, j, seed + 3);
+      const double cover = clamp01((r - std::hypot(s - cs, t - ct)) / std::max(fp, 1e-6) + 0.5);
+      stone = std::max(stone, cover * (0.5 + hashUnit(i, j, seed + 4)));
+    }
+  const double w = fp < 0.015 ? 1.0 : 1.0 - (fp - 0.015) / 0.015;  // fade towards the mean before aliasing
+  return base + lift * (w * stone + (1.0 - w) * meanCover);
+}
+
+float highway(const Material& m, const SurfacePoint& p) {
+  // Carriageway; s along the road, t across from its right edge. param: [0] lane width, [1] number of lanes,
+  // [2] dash length, [3] dash period (m). Solid edge lines 0.15 m wide, dashed dividers 0.15 m wide.
+  const double fp = p.footprint;
+  double a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 0.7, 9, fp));
+  a = aggregate(p.s, p.t, m.seed + 9, fp, a);
+  const double lane = m.param[0] > 0 ? m.param[0] : 3.5;
+  const int lanes = m.param[1] > 0 ? static_cast<int>(m.param[1]) : 2;
+  const double dashLen = m.param[2] > 0 ? m.param[2] : 6.0, period = m.param[3] > 0 ? m.param[3] : 18.0;
+  double paint = std::max(interval(p.t, 0.1, 0.25, fp), interval(p.t, p.sizeT - 0.25, p.sizeT - 0.1, fp));
+  const double along = std::fmod(std::fmod(p.s, period) + period, period);
+  const double dash = fp < 0.3 * dashLen ? interval(along, 0.0, dashLen, fp) : dashLen / period;
+  for (int k = 1; k < lanes; ++k) paint = std::max(paint, dash * interval(p.t, k * lane - 0.075, k * lane + 0.075, fp));
+  if (paint <= 0) return static_cast<float>(a);
+  const double wear = 0.78 + 0.08 * fractalNoise(p.s, p.t, m.seed + 5, 3.0, 4, fp);
+  return static_cast<float>(lerp(a, wear, paint));
+}
+
+float guardrail(const Material& m, const SurfacePoint& p) {
+  // W-beam seen from the road: t across the beam height. param: [0] bolt spacing along s (m).
+  const double fp = p.footprint, h = std::max(p.sizeT, 1e-3);
+  const double v = p.t / h;
+  // Profile: bright ridges at 1/4 and 3/4 of the height and a dark groove in the middle.
+  const double fpV = fp / h;
+  const double ridge = std::max(interval(v, 0.12, 0.38, fpV), interval(v, 0.62, 0.88, fpV));
+  const double groove = interval(v, 0.44, 0.56, fpV);
+  double a = m.albedo * (1.0 + m.contrast * fractalNoise(p.s, p.t, m.seed, 2.0, 4, fp));
+  a = lerp(a, std::min(1.0, 1.35 * m.albedo), ridge);
+  a = lerp(a, 0.45 * m.albedo, groove);
+  const double spacing = m.param[0] > 0 ? m.param[0] : 2.0;
+  const double along = std::fmod(std::fmod(p.s, spacing) + spacing, spacing);
+  if (fp < 0.05) {
+    const double bolts = interval(along, 0.0, 0.05, fp) * (interval(v, 0.22, 0.3, fpV) + interval(v, 0.7, 0.78, fpV));
+    a = lerp(a, 0.12, std::min(1.0, bolts));
+  }
+  return static_cast<float>(a);
 }
 
 }  // namespace
@@ -389,6 +538,9 @@ float albedoAt(const Material& m, const SurfacePoint& p) {
     case TextureKind::Foliage:
       a = m.albedo * (1.0 + 0.6 * std::tanh(2.5 * fractalNoise(p.s, p.t, m.seed, 2.0, 6, p.footprint)));
       break;
+    case TextureKind::Hedge: a = hedge(m, p); break;
+    case TextureKind::Highway: a = highway(m, p); break;
+    case TextureKind::Guardrail: a = guardrail(m, p); break;
   }
   return static_cast<float>(clamp01(a));
 }

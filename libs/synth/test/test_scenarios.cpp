@@ -21,7 +21,7 @@ TEST(Scenarios, StartWithParallaxAndLoopsClose) {
     double maxStep = 0;
     for (int i = 1; i < info.defaultFrames; ++i)
       maxStep = std::max(maxStep, (s.T_world_cam(i / info.fps).translation() - s.T_world_cam((i - 1) / info.fps).translation()).norm());
-    EXPECT_LT(maxStep, name == "street" ? 1.0 : 0.1) << name;
+    EXPECT_LT(maxStep, info.fps <= 10 ? 1.0 : 0.1) << name;  // driving at 10 Hz (street, jam) vs walking
   }
   // The corridor walk returns to its start after one loop (drift becomes visible), up to the shake.
   const Scenario c = makeScenario("corridor", 1, 70.0);

@@ -4,6 +4,8 @@
 //   lowtexture white Manhattan structure in a hall, seen near then far (TUM structure_notexture-like), 30 Hz
 //   street     street canyon with parked cars, pedestrians and stop-and-go traffic at a red light, 10 Hz
 //   corridor   70 m corridor loop around an inner block, returns to its start (HRBB4-like), 15 Hz
+//   jam        stop-and-go motorway jam between homogeneous vegetation, textured trucks, parked cars (Virtual
+//              KITTI 20-like), 10 Hz; jam-static is the same without the moving traffic (control)
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -33,7 +35,7 @@ struct Scenario {
 const std::vector<std::string>& scenarioNames();
 /// Info of a preset without building it. Throws pslam::Error for an unknown name (listing the known ones).
 ScenarioInfo scenarioInfo(const std::string& name);
-/// Builds a preset. `duration` (seconds) lets open-ended scenes (street) extend far enough; textures,
+/// Builds a preset. `duration` (seconds) lets open-ended scenes (street, jam) extend far enough; textures,
 /// placements of parked cars and pedestrians, traffic and jitter derive from `seed`.
 Scenario makeScenario(const std::string& name, std::uint32_t seed, double duration);
 

@@ -29,14 +29,19 @@ enum class TextureKind {
   Facade,        ///< building front: storeys of windows with frames over plaster or bricks
   Road,          ///< asphalt with lane markings and a zebra crossing (see Material::param)
   Sidewalk,      ///< concrete slabs
-  CarBody,       ///< paint with door seams, wheels, lights (box faces)
+  CarBody,       ///< paint with door seams, wheels, lights (box faces); param[1] = 1: printed door wrap, sticker
   CarCabin,      ///< glass with pillars
-  BusBody,       ///< paint with a band of windows
+  BusBody,       ///< paint with a band of windows (param[0] = 1) or a printed cargo box; param[1] = 1: livery
+                 ///< (advertisement panel under the windows, cargo printed all over, textured rear doors)
   Person,        ///< trousers, shirt, head
   Ceiling,       ///< panels with bright light fittings
   CorridorWall,  ///< plaster with doors, notice boards and a skirting board
   Wood,          ///< anisotropic grain (furniture)
   Foliage,       ///< high-frequency blotchy noise (tree canopies)
+  Hedge,         ///< low-contrast vegetation that repeats exactly every param[0] metres along s (similar-looking)
+  Highway,       ///< asphalt with light aggregate stones, dashed lane dividers and solid edge lines (param: lane
+                 ///< width, lanes, dash length, dash period in metres)
+  Guardrail,     ///< galvanized W-beam: two bright ridges, a dark groove, bolts every param[0] metres (repetitive)
 };
 
 struct Material {
