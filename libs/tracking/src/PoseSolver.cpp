@@ -1,9 +1,6 @@
 #include "pslam/tracking/PoseSolver.h"
 
-#include <map>
-#include <mutex>
-
-#include "pslam/core/Error.h"
+#include "pslam/core/NamedRegistry.h"
 
 namespace pslam::tracking {
 
@@ -26,48 +23,21 @@ optimize::PoseOptimizationResult TranslationOnlyPoseSolver::solve(const PoseSolv
 }
 
 namespace {
-struct Registry {
-  std::mutex mutex;
-  std::map<std::string, PoseSolverFactory> factories{
+NamedRegistry<PoseSolverFactory>& registry() {
+  static NamedRegistry<PoseSolverFactory> r({
       {"full6dof", [](const optimize::PoseOptimizationParams& p) { return std::make_unique<FullPoseSolver>(p); }},
       {"translationOnly",
-       [](const optimize::PoseOptimizationParams& p) { return std::make_unique<TranslationOnlyPoseSolver>(p); }}};
-};
-Registry& registry() {
-  static Registry r;
+       [](const optimize::PoseOptimizationParams& p) { return std::make_unique<TranslationOnlyPoseSolver>(p); }}});
   return r;
 }
 }  // namespace
 
 std::unique_ptr<PoseSolver> makePoseSolver(const std::string& name, const optimize::PoseOptimizationParams& params) {
-  PoseSolverFactory factory;
-  {
-    Registry& r = registry();
-    std::lock_guard<std::mutex> lk(r.mutex);
-    auto it = r.factories.find(name);
-    if (it != r.factories.end()) factory = it->second;
-  }
-  if (!factory) {
-    std::string known;
-    for (const std::string& n : poseSolverNames()) known += (known.empty() ? "" : ", ") + n;
-    throw Error("[System] poseSolver = " + name + ": unknown pose solver (known: " + known + ")");
-  }
-  return factory(params);
+  return registry().get(name, "[System] poseSolver", "pose solver")(params);
 }
 
-void registerPoseSolver(const std::string& name, PoseSolverFactory factory) {
-  require(!name.empty() && factory != nullptr, "registerPoseSolver", "needs a name and a factory");
-  Registry& r = registry();
-  std::lock_guard<std::mutex> lk(r.mutex);
-  r.factories[name] = std::move(factory);
-}
+void registerPoseSolver(const std::string& name, PoseSolverFactory factory) { registry().add(name, std::move(factory)); }
 
-std::vector<std::string> poseSolverNames() {
-  Registry& r = registry();
-  std::lock_guard<std::mutex> lk(r.mutex);
-  std::vector<std::string> names;
-  for (const auto& [n, f] : r.factories) names.push_back(n);
-  return names;
-}
+std::vector<std::string> poseSolverNames() { return registry().names(); }
 
 }  // namespace pslam::tracking

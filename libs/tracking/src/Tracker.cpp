@@ -419,7 +419,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
       res.initialReferencePose = std::make_pair(reference.timestamp, reference.T_cam_world);
       referenceKeyFrame_ = init.kf2;
       lastKeyFrameFrame_ = frame.index;
-      // Velocity of the two-view motion spread over the frames between reference and current.
+      // No velocity yet (as ORB-SLAM after initialization): the next frame is tracked against the reference keyframe.
       haveVelocity_ = false;
       res.hasPose = true;
       res.T_cam_world = frame.T_cam_world;
