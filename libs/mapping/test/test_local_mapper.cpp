@@ -557,31 +557,16 @@ TEST(LocalMapper, UnknownKeyFrameIsAnError) {
   EXPECT_THROW(mapper.processKeyFrame(42, {}), Error);
 }
 
-}  // namespace
-}  // namespace pslam::mapping
-
-namespace pslam::mapping {
-namespace {
-using map::KeyFrameId;
-using map::MapPoint;
-using map::MapPointId;
-using namespace pslam::mapping::testing;
-
-LocalMappingParams defaultParams() {
-  LocalMappingParams p;
-  p.ba.numThreads = 1;
-  return p;
-}
 
 /// A policy that refuses every point with an odd id (and counts how often it was asked).
 class OddIdsRefused : public map::PointUsePolicy {
  public:
   std::string name() const override { return "odd-ids-refused"; }
-  bool mayUse(const MapPoint& p) const override {
+  bool mayUse(const map::MapPoint& p) const override {
     ++asked;
     return !p.bad && p.id % 2 == 0;
   }
-  bool shouldCull(const MapPoint& p, KeyFrameId) const override { return p.bad; }
+  bool shouldCull(const map::MapPoint& p, KeyFrameId) const override { return p.bad; }
   mutable int asked = 0;
 };
 
@@ -595,7 +580,7 @@ TEST(LocalMapper, BundleAdjustmentNeverUsesAPointThePolicyRefuses) {
   for (MapPointId id : ids) map.setInverseDepth(id, map.mapPoint(id).inverseDepth * (1.0 + n(rng)));
   std::map<MapPointId, double> before;
   for (MapPointId id : ids) before[id] = map.mapPoint(id).inverseDepth;
-  LocalMappingParams params = defaultParams();
+  LocalMappingParams params = heuristicParams();
   params.ba.maxLocalKeyFrames = 3;
   auto policy = std::make_shared<OddIdsRefused>();
   LocalMapper mapper(map, params, policy);
@@ -616,7 +601,7 @@ TEST(LocalMapper, BundleAdjustmentNeverUsesAPointThePolicyRefuses) {
 
 TEST(LocalMapper, DefaultPolicyIsTheMapPointModel) {
   map::Map map;
-  LocalMappingParams params = defaultParams();
+  LocalMappingParams params = heuristicParams();
   LocalMapper heuristic(map, params);
   EXPECT_EQ(heuristic.pointUsePolicy()->name(), "heuristic");
   EXPECT_TRUE(heuristic.pointUsePolicy()->usesEveryGoodPoint());
