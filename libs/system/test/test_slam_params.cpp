@@ -142,13 +142,14 @@ TEST(SlamParams, FormerKeysAreUnknownAndNameTheirReplacement) {
       {"[Tracking]\nkeyframeRefRatio = 0.9\n", "[Tracking] keyframeRefRatio: unknown key (did you mean keyFrames.refRatio?)"},
       {"[Tracking]\nkeyframeMinInliers = 15\n",
        "[Tracking] keyframeMinInliers: unknown key (did you mean keyFrames.minInliers?)"},
-      {"[Tracking]\nransacIterations = 300\n", "[Tracking] ransacIterations: unknown key (did you mean pnp.ransacIterations?)"},
+      {"[Tracking]\nransacIterations = 300\n", "[Tracking] ransacIterations: unknown key (did you mean pnp.ransacIterations?); [Initializer] has a key of this name"},
       {"[LocalMapping]\ncovisibleKeyframes = 20\n",
        "[LocalMapping] covisibleKeyframes: unknown key (did you mean covisibleKeyFrames?)"},
       {"[LocalMapping]\nepipolarMinDistance = 10\n",
        "[LocalMapping] epipolarMinDistance: unknown key (did you mean epipolarMinDistancePixels?)"},
       {"[LocalMapping]\nfusionRadius = 3\n", "[LocalMapping] fusionRadius: unknown key (did you mean fusionRadiusPixels?)"},
-      {"[LocalMapping]\nmodel = heuristic\n", "[LocalMapping] model: unknown key (did you mean nnRatio?)"},
+      // A key that moved to another section says where it belongs.
+      {"[LocalMapping]\nmodel = heuristic\n", "[LocalMapping] model: unknown key (did you mean nnRatio?); [PointModel] has a key of this name"},
       {"[System]\nlocalMapper = mapping\n", "[System] localMapper: unknown key (did you mean poseSolver?)"},
   };
   for (const auto& [ini, error] : renamed) EXPECT_EQ(errorFor(ini), error) << ini;

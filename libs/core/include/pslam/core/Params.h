@@ -43,6 +43,7 @@
 // override text) in front: `config/slam/kitti.ini: [Tracking] ...`.
 #include <cmath>
 #include <cstdint>
+#include <algorithm>
 #include <functional>
 #include <limits>
 #include <map>
@@ -421,6 +422,17 @@ struct SectionChecker {
   template <class P>
   void section(const char* name, P& p) { check(p, name); }
 };
+/// The sections (other than `except`) that have `key`.
+struct SectionsWithKey {
+  std::string key, except;
+  std::vector<std::string> found;
+  template <class P>
+  void section(const char* name, P& p) {
+    if (name == except) return;
+    const std::vector<std::string> keys = keysOf(p);
+    if (std::find(keys.begin(), keys.end(), key) != keys.end()) found.emplace_back(name);
+  }
+};
 }  // namespace detail
 
 /// Throws ParamError `[Name]: unknown section (did you mean X?)` for a section of `cfg` not in `known`.
@@ -436,7 +448,18 @@ template <class C>
 void loadSections(C& c, const mrpt::config::CConfigFileBase& cfg) {
   requireKnownSections(cfg, sectionsOf(c));
   detail::SectionLoader l{cfg};
-  c.visitSections(l);
+  try {
+    c.visitSections(l);
+  } catch (const ParamError& e) {
+    // A key of another section (e.g. one that moved there): say where it belongs.
+    if (e.key().empty() || std::string(e.what()).find(": unknown key") == std::string::npos) throw;
+    detail::SectionsWithKey w{e.key(), e.section(), {}};
+    c.visitSections(w);
+    if (w.found.empty()) throw;
+    const std::string what = e.what(), prefix = "[" + e.section() + "] " + e.key() + ": ";
+    const std::string reason = what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : "unknown key";
+    throw ParamError(e.section(), e.key(), std::nullopt, reason + "; [" + w.found.front() + "] has a key of this name");
+  }
 }
 template <class C>
 void saveSections(const C& c, mrpt::config::CConfigFileBase& cfg) {
