@@ -51,9 +51,19 @@ InitializationOutcome MonocularInitializer::process(Frame& current, map::Map& ma
   mp.windowHalfSize = params_.windowHalfSize;
   mp.nnRatio = params_.nnRatio;
   std::vector<cv::Point2f> prevMatched = prevMatched_;
-  const auto matches = features::matchForInitialization(reference_->keypoints, reference_->descriptors,
-                                                        current.keypoints, current.descriptors, current.grid,
-                                                        prevMatched, mp);
+  auto matches = features::matchForInitialization(reference_->keypoints, reference_->descriptors,
+                                                  current.keypoints, current.descriptors, current.grid,
+                                                  prevMatched, mp);
+  // §3.4.1: potentially moving objects stay out of the initial map. A keypoint without semantics counts as static.
+  if (params_.minStaticProbability > 0.0) {
+    auto isStatic = [&](const Frame& f, int k) {
+      return f.semanticProbabilities.empty() ||
+             f.semanticProbabilities[static_cast<std::size_t>(k)][0] >= params_.minStaticProbability;
+    };
+    matches.erase(std::remove_if(matches.begin(), matches.end(),
+                                 [&](const auto& m) { return !isStatic(*reference_, m.i1) || !isStatic(current, m.i2); }),
+                  matches.end());
+  }
   out.matches = static_cast<int>(matches.size());
   if (out.matches < params_.minMatches)
     return takeAsReference("too few initialization matches (" + std::to_string(out.matches) + ")");

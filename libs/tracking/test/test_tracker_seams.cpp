@@ -200,3 +200,54 @@ TEST(TrackerSeams, TranslationOnlySolverTakesTheRotationPrior) {
   EXPECT_LT((out.T_cam_world.linear() - truth.linear()).norm(), 1e-12);
   EXPECT_LT((out.T_cam_world.inverse().translation() - truth.inverse().translation()).norm(), 1e-6);
 }
+
+namespace {
+/// The scene seen from `slot` as a tracking frame (exact keypoints, the scene's descriptors), with a SEMANTIC
+/// image that is dynamic on the left half of the image and static elsewhere.
+tracking::Frame viewWithSemantics(World& w, int slot, std::size_t index) {
+  const Eigen::Isometry3d T = mt::poseOf(slot);
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc(0, 32, CV_8U);
+  for (std::size_t i = 0; i < w.scene.points.size(); ++i) {
+    const Eigen::Vector3d pc = T * w.scene.points[i];
+    if (pc.z() <= 0.1) continue;
+    const Eigen::Vector2d px = w.camera.project(pc);
+    if (px.x() < 0 || px.y() < 0 || px.x() >= 640 || px.y() >= 480) continue;
+    kps.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, w.scene.angles[i], 1.f, 0);
+    desc.push_back(w.scene.descriptors[i]);
+  }
+  cv::Mat semantic(480, 640, CV_8UC3, cv::Scalar(255, 0, 0));            // static
+  semantic(cv::Rect(0, 0, 320, 480)).setTo(cv::Scalar(0, 255, 0));      // dynamic
+  return tracking::makeFrameFromFeatures(index, 0.1 * index, w.camera, kps, desc, 8, 1.2, semantic);
+}
+
+/// Initializes from slots 0 and 2 and returns how many initial map points sit on the dynamic half (-1: failed).
+int dynamicInitialPoints(double minStaticProbability) {
+  World w;
+  tracking::InitializerParams p;
+  p.minStaticProbability = minStaticProbability;
+  p.minMatches = 50;
+  p.minMapPoints = 30;
+  tracking::MonocularInitializer init(w.camera, p, {});
+  std::mt19937 rng(3);
+  map::Map m;
+  tracking::Frame ref = viewWithSemantics(w, 0, 0), cur = viewWithSemantics(w, 2, 2);
+  init.process(ref, m, rng);
+  const tracking::InitializationOutcome out = init.process(cur, m, rng);
+  if (!out.initialized) {
+    ADD_FAILURE() << "initialization failed: " << out.message;
+    return -1;
+  }
+  int dynamic = 0;
+  for (const auto& [id, point] : m.mapPoints()) {
+    const map::KeyFrame& anchor = m.keyFrame(point.anchorKeyFrame);
+    dynamic += anchor.keypoints[point.anchorKeypoint].pt.x < 320 ? 1 : 0;
+  }
+  return dynamic;
+}
+}  // namespace
+
+TEST(MonocularInitializer, MinStaticProbabilityKeepsDynamicKeypointsOutOfTheInitialMap) {
+  EXPECT_GT(dynamicInitialPoints(0.0), 20) << "without the filter the dynamic half takes part";
+  EXPECT_EQ(dynamicInitialPoints(0.8), 0) << "§3.4.1: only P(static) >= 0.8 keypoints initialize";
+}

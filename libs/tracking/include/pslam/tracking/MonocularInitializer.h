@@ -31,6 +31,9 @@ struct InitializerParams {
   /// keypoints take part in SearchForInitialization, and enough matches are needed to keep a reference frame
   /// long enough for parallax to build up.
   double featureFactor = 2.0;
+  /// §3.4.1: with a SEMANTIC channel, only keypoints with P(static) >= this take part in the initial map
+  /// (p_min^static = 0.8 in the thesis' system); 0 (default, ORB-SLAM*) = every keypoint.
+  double minStaticProbability = 0.0;
   geometry::TwoViewParams twoView;
 
   template <class V>
@@ -43,6 +46,8 @@ struct InitializerParams {
     PSLAM_FIELD(v, windowHalfSize, greaterThan(0), "SearchForInitialization window (px)");
     PSLAM_FIELD(v, nnRatio, inLeftOpen(0, 1), "SearchForInitialization ratio");
     PSLAM_FIELD(v, featureFactor, inClosed(1, 10), "keypoints extracted while initializing = this x nFeatures");
+    PSLAM_FIELD(v, minStaticProbability, inClosed(0, 1),
+                "with SEMANTIC: only keypoints with P(static) >= this initialize the map (§3.4.1: 0.8); 0 = all");
     v.flat(twoView);
   }
   PSLAM_PARAMS("Initializer")
