@@ -398,12 +398,12 @@ std::vector<MapPointId> Map::pointsOf(KeyFrameId id) const {
   return {s.begin(), s.end()};
 }
 
-int Map::trackedMapPoints(KeyFrameId id, std::size_t minObservations) const {
+int Map::trackedMapPoints(KeyFrameId id, std::size_t minObservations, const PointUsePolicy* policy) const {
   int n = 0;
   for (MapPointId p : keyFrame(id).mapPointIds)
     if (p != kNoMapPoint) {
       const MapPoint& mp = mapPoint(p);
-      if (!mp.bad && mp.observations.size() >= minObservations) ++n;
+      if (!mp.bad && mp.observations.size() >= minObservations && (!policy || policy->mayUse(mp))) ++n;
     }
   return n;
 }

@@ -94,15 +94,6 @@ void LocalMapper::reset() { recent_.clear(); }
 
 landmarks::MapPointModel LocalMapper::model() const { return params_.pointModel.policy.model; }
 
-namespace {
-/// SVO's initial seed spread: the whole inverse-depth range is +-3 sigma.
-double initialVariance(const landmarks::KeypointModelParams& p) {
-  const double range = p.inverseDepthMax - p.inverseDepthMin;
-  return range * range / 36.0;
-}
-
-}  // namespace
-
 bool LocalMapper::isActive(MapPointId point) const { return impl_->usePolicy->mayUse(map_.mapPoint(point)); }
 
 std::shared_ptr<const map::PointUsePolicy> LocalMapper::pointUsePolicy() const { return impl_->usePolicy; }
@@ -118,7 +109,7 @@ static bool updateLandmarkState(map::Map& map, const landmarks::KeypointModel& m
   MapPoint& p = map.mutableMapPoint(pointId);
   const std::string context = "map point " + std::to_string(pointId);
   landmarks::KeypointState state = p.landmarkState.empty()
-                                       ? model.initialize(p.inverseDepthAlongZ(), initialVariance(model.params()))
+                                       ? model.initialize(p.inverseDepthAlongZ(), initialInverseDepthVariance(model.params()))
                                        : decodeKeypointState(p.landmarkState, context);
   const KeyFrame& kf = map.keyFrame(kfId);
   const std::size_t k = p.observations.at(kfId);
@@ -363,7 +354,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
                                                                  kf1.camera.fx, params_.depthPixelNoise)
                                    : landmarks::DepthUncertainty{};
         const double variance = tau.valid && tau.tau2InverseDepth() > 0.0 ? tau.tau2InverseDepth()
-                                                                          : initialVariance(params_.pointModel.keypoint);
+                                                                          : initialInverseDepthVariance(params_.pointModel.keypoint);
         landmarks::KeypointState state = impl_->modelPolicy->keypointModel().initialize(p.inverseDepthAlongZ(), variance);
         if (!kf1.semanticProbabilities.empty()) {
           const auto& c1 = kf1.semanticProbabilities.at(m.i1);

@@ -7,13 +7,10 @@
 
 namespace pslam::mapping {
 
-namespace {
-/// SVO's initial seed spread: the whole inverse-depth range is +-3 sigma.
-double initialVariance(const landmarks::KeypointModelParams& p) {
+double initialInverseDepthVariance(const landmarks::KeypointModelParams& p) {
   const double range = p.inverseDepthMax - p.inverseDepthMin;
   return range * range / 36.0;
 }
-}  // namespace
 
 MapPointModelPolicy::MapPointModelPolicy(const landmarks::MapPointPolicyParams& policy,
                                          const landmarks::KeypointModelParams& keypoint)
@@ -27,7 +24,7 @@ std::string MapPointModelPolicy::name() const { return landmarks::toString(model
 landmarks::MapPointRecord MapPointModelPolicy::recordOf(const map::MapPoint& p) const {
   landmarks::MapPointRecord r;
   r.model = p.landmarkState.empty()
-                ? keypointModel_.initialize(p.inverseDepthAlongZ(), initialVariance(keypointModel_.params()))
+                ? keypointModel_.initialize(p.inverseDepthAlongZ(), initialInverseDepthVariance(keypointModel_.params()))
                 : decodeKeypointState(p.landmarkState, "map point " + std::to_string(p.id));
   r.counters.visible = static_cast<std::uint32_t>(std::max(0, p.visibleCount));
   r.counters.found = static_cast<std::uint32_t>(std::max(0, p.foundCount));

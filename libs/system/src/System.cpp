@@ -172,20 +172,20 @@ System::System(SlamParams params, SystemOptions options)
     : params_(std::move(params)), options_(std::move(options)) {
   params_.check();
   // Unknown solver / initializer names fail here, not at the first frame.
-  auto known = [](const std::vector<std::string>& names, const std::string& name) {
-    return std::find(names.begin(), names.end(), name) != names.end();
-  };
-  if (!known(tracking::poseSolverNames(), params_.system.poseSolver))
-    tracking::makePoseSolver(params_.system.poseSolver, params_.poseOptimization);  // throws naming the key and choices
-  if (!known(tracking::mapInitializerNames(), params_.system.initializer))
-    tracking::makeMapInitializer(params_.system.initializer, geometry::PinholeCamera(), params_.initializer,
-                                 params_.bundleAdjustment);
+  tracking::requirePoseSolver(params_.system.poseSolver);
+  tracking::requireMapInitializer(params_.system.initializer);
   threaded_ = options_.threaded.value_or(params_.system.threaded);
   if (options_.camera) {
     options_.camera->check();
-    camera_ = options_.camera;
-    impl_ = std::make_unique<Impl>(params_, *camera_, options_.seed, threaded_);
+    start(*options_.camera);
   }
+}
+
+void System::start(const geometry::PinholeCamera& camera) {
+  camera_ = camera;
+  impl_ = std::make_unique<Impl>(params_, camera, options_.seed, threaded_);
+  impl_->mappingEnabled = mappingEnabled_;
+  impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
 }
 
 System::~System() = default;
@@ -215,10 +215,7 @@ TrackResult System::track(const datasets::Frame& input) {
     require(cam.width == input.image.cols && cam.height == input.image.rows, ctx,
             "intrinsics resolution " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                 " differs from the image " + std::to_string(input.image.cols) + "x" + std::to_string(input.image.rows));
-    camera_ = cam;
-    impl_ = std::make_unique<Impl>(params_, cam, options_.seed, threaded_);
-    impl_->mappingEnabled = mappingEnabled_;
-    impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
+    start(cam);
   }
   Impl& s = *impl_;
   require(input.image.cols == s.camera.width && input.image.rows == s.camera.height, ctx,
@@ -345,10 +342,7 @@ void System::loadMap(const std::filesystem::path& path) {
     geometry::PinholeCamera cam(mapCamera.fx, mapCamera.fy, mapCamera.cx, mapCamera.cy, mapCamera.width,
                                 mapCamera.height);
     cam.check();
-    camera_ = cam;
-    impl_ = std::make_unique<Impl>(params_, cam, options_.seed, threaded_);
-    impl_->mappingEnabled = mappingEnabled_;
-    impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
+    start(cam);
   }
   impl_->waitForMapping();
   std::lock_guard<std::mutex> mk(impl_->mapMutex);

@@ -28,4 +28,6 @@ void registerMapInitializer(const std::string& name, MapInitializerFactory facto
 
 std::vector<std::string> mapInitializerNames() { return registry().names(); }
 
+void requireMapInitializer(const std::string& name) { registry().get(name, "[System] initializer", "initializer"); }
+
 }  // namespace pslam::tracking

@@ -40,4 +40,6 @@ void registerPoseSolver(const std::string& name, PoseSolverFactory factory) { re
 
 std::vector<std::string> poseSolverNames() { return registry().names(); }
 
+void requirePoseSolver(const std::string& name) { registry().get(name, "[System] poseSolver", "pose solver"); }
+
 }  // namespace pslam::tracking

@@ -496,16 +496,9 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   kin.lastRelocFrame = lastRelocFrame_;
   kin.relocalizedEver = relocalizedEver_;
   kin.numKeyFrames = map_.numKeyFrames();
-  if (map_.hasKeyFrame(referenceKeyFrame_)) {
-    const std::size_t minObs = kin.numKeyFrames <= 2 ? 2 : 3;
-    if (!policy_) {
-      kin.referenceTrackedPoints = map_.trackedMapPoints(referenceKeyFrame_, minObs);
-    } else {
-      // ORB-SLAM's TrackedMapPoints over the points the policy lets us use.
-      for (map::MapPointId p : map_.keyFrame(referenceKeyFrame_).mapPointIds)
-        if (usable(p) && map_.mapPoint(p).observations.size() >= minObs) ++kin.referenceTrackedPoints;
-    }
-  }
+  // ORB-SLAM's TrackedMapPoints over the points the policy lets us use (§3.4.3).
+  if (map_.hasKeyFrame(referenceKeyFrame_))
+    kin.referenceTrackedPoints = map_.trackedMapPoints(referenceKeyFrame_, kin.numKeyFrames <= 2 ? 2 : 3, policy_.get());
   kin.trackedInliers = rep.inliers;
   kin.localMappingIdle = localMappingIdle_;
   if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {

@@ -17,6 +17,7 @@
 
 #include "pslam/map/KeyFrame.h"
 #include "pslam/map/MapPoint.h"
+#include "pslam/map/PointUsePolicy.h"
 
 namespace pslam::map {
 
@@ -120,8 +121,9 @@ class Map {
   LocalWindow localWindow(KeyFrameId centre, std::size_t maxLocalKeyFrames = 20) const;
   /// Points observed by keyframe `id` (ascending, no duplicates).
   std::vector<MapPointId> pointsOf(KeyFrameId id) const;
-  /// Number of points of `id` observed by at least minObservations keyframes (ORB-SLAM TrackedMapPoints).
-  int trackedMapPoints(KeyFrameId id, std::size_t minObservations) const;
+  /// Number of points of `id` observed by at least minObservations keyframes (ORB-SLAM TrackedMapPoints),
+  /// counting only those `policy` lets us use when one is given.
+  int trackedMapPoints(KeyFrameId id, std::size_t minObservations, const PointUsePolicy* policy = nullptr) const;
 
   /// Verifies all invariants listed at the top of this file; throws pslam::Error naming the first
   /// violation (prefixed by `context`).

@@ -12,6 +12,9 @@
 
 namespace pslam::mapping {
 
+/// SVO's initial seed spread of a new point's inverse depth: the whole range of the model is +-3 sigma.
+double initialInverseDepthVariance(const landmarks::KeypointModelParams& params);
+
 class MapPointModelPolicy : public map::PointUsePolicy {
  public:
   /// Checks both parameter sets (pslam::Error naming the key).

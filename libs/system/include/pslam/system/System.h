@@ -114,6 +114,8 @@ class System {
   nlohmann::json report() const;
 
  private:
+  /// Makes map, tracker and mapper for `camera` (with the current mapping mode).
+  void start(const geometry::PinholeCamera& camera);
   struct Impl;
   SlamParams params_;
   SystemOptions options_;

@@ -49,6 +49,8 @@ std::unique_ptr<MapInitializer> makeMapInitializer(const std::string& name, cons
                                                    const optimize::BundleAdjustmentParams& ba);
 /// Adds (or replaces) an initializer under `name`; thread-safe.
 void registerMapInitializer(const std::string& name, MapInitializerFactory factory);
+/// Throws the error of the factory (naming the key and the known names) when `name` is not registered.
+void requireMapInitializer(const std::string& name);
 /// Registered names, sorted.
 std::vector<std::string> mapInitializerNames();
 

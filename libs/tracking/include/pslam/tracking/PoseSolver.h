@@ -65,6 +65,8 @@ using PoseSolverFactory = std::function<std::unique_ptr<PoseSolver>(const optimi
 std::unique_ptr<PoseSolver> makePoseSolver(const std::string& name, const optimize::PoseOptimizationParams& params);
 /// Adds (or replaces) a solver under `name`; thread-safe.
 void registerPoseSolver(const std::string& name, PoseSolverFactory factory);
+/// Throws the error of the factory (naming the key and the known names) when `name` is not registered.
+void requirePoseSolver(const std::string& name);
 /// Registered names, sorted.
 std::vector<std::string> poseSolverNames();
 
