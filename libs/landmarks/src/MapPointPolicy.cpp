@@ -21,6 +21,12 @@ bool orbSlamShouldCull(const HeuristicCounters& c, std::int64_t currentKeyframeI
   return currentKeyframeId - c.firstKeyframeId >= p.observationWindow && c.observations <= p.minObservations;
 }
 
+bool inlierRatioShouldCull(const MapPointRecord& point, const MapPointPolicyParams& p, const KeypointModel& model) {
+  if (point.counters.bad) return true;
+  if (p.cullInlierRatio <= 0) return false;
+  return point.model.depthUpdates >= p.cullMinDepthUpdates && model.inlierRatio(point.model) < p.cullInlierRatio;
+}
+
 namespace {
 
 class HeuristicPolicy final : public MapPointPolicy {
@@ -60,10 +66,10 @@ class ProbabilisticPolicy final : public MapPointPolicy {
   bool isActive(const MapPointRecord& point) const override {
     return !point.counters.bad && model_.isActive(point.model);
   }
-  bool shouldCull(const MapPointRecord& point, std::int64_t) const override {
+  bool shouldCull(const MapPointRecord& point, std::int64_t kf) const override {
     if (point.counters.bad) return true;
-    if (p_.cullInlierRatio <= 0) return false;
-    return point.model.depthUpdates >= p_.cullMinDepthUpdates && model_.inlierRatio(point.model) < p_.cullInlierRatio;
+    if (p_.orbSlamCulling && orbSlamShouldCull(point.counters, kf, p_)) return true;
+    return inlierRatioShouldCull(point, p_, model_);
   }
 
  private:

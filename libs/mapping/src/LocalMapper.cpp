@@ -31,12 +31,6 @@ double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-Eigen::Matrix3d intrinsicMatrix(const map::CameraIntrinsics& c) {
-  Eigen::Matrix3d K;
-  K << c.fx, 0.0, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0;
-  return K;
-}
-
 /// Median z of the keyframe's points in its own camera (ORB-SLAM ComputeSceneMedianDepth(2)); -1 if none.
 double sceneMedianDepth(const map::Map& map, const KeyFrame& kf) {
   std::vector<double> z;
@@ -84,7 +78,7 @@ LocalMapper::LocalMapper(map::Map& map, const LocalMappingParams& params,
                          std::shared_ptr<const map::PointUsePolicy> pointUsePolicy)
     : map_(map), params_(params), impl_(std::make_unique<Impl>()) {
   params_.check();
-  impl_->modelPolicy = std::make_shared<MapPointModelPolicy>(params_.pointModel.policy, params_.pointModel.keypoint);
+  impl_->modelPolicy = std::make_shared<MapPointModelPolicy>(params_.pointModel, params_.depthPixelNoise);
   impl_->usePolicy = pointUsePolicy ? std::move(pointUsePolicy) : impl_->modelPolicy;
 }
 
@@ -100,69 +94,42 @@ std::shared_ptr<const map::PointUsePolicy> LocalMapper::pointUsePolicy() const {
 
 // ------------------------------------------------------------------------------------ probabilistic hook
 
-/// Updates the keypoint model of `pointId` with its observation in keyframe `kfId` (§3.4.2): the inverse
-/// depth along the anchor's z axis is re-triangulated from the anchor keypoint and this observation (DLT),
-/// tau^2 follows eq. 2.24-2.29, alpha is eq. 3.2 of the Hamming distance between the point's descriptor and
-/// the observed keypoint's. Returns true if a depth update was applied.
-static bool updateLandmarkState(map::Map& map, const landmarks::KeypointModel& model, const LocalMappingParams& params,
-                                MapPointId pointId, KeyFrameId kfId) {
+/// Updates the keypoint model of `pointId` with its observation in keyframe `kfId` (§3.4.2, see
+/// MapPointModelPolicy::observe); the anchor's own observation carries no depth, only its class evidence.
+/// Returns true if a depth update was applied.
+static bool updateLandmarkState(map::Map& map, const MapPointModelPolicy& policy, MapPointId pointId, KeyFrameId kfId) {
   MapPoint& p = map.mutableMapPoint(pointId);
-  const std::string context = "map point " + std::to_string(pointId);
-  landmarks::KeypointState state = p.landmarkState.empty()
-                                       ? model.initialize(p.inverseDepthAlongZ(), initialInverseDepthVariance(model.params()))
-                                       : decodeKeypointState(p.landmarkState, context);
   const KeyFrame& kf = map.keyFrame(kfId);
   const std::size_t k = p.observations.at(kfId);
-  bool updated = false;
+  const std::array<float, 3>* classes = kf.semanticProbabilities.empty() ? nullptr : &kf.semanticProbabilities.at(k);
   if (kfId != p.anchorKeyFrame) {
-    const KeyFrame& anchor = map.keyFrame(p.anchorKeyFrame);
-    const geometry::Matrix34d P1 = geometry::projectionMatrix(
-        intrinsicMatrix(anchor.camera), anchor.T_cam_world.linear(), anchor.T_cam_world.translation());
-    const geometry::Matrix34d P2 =
-        geometry::projectionMatrix(intrinsicMatrix(kf.camera), kf.T_cam_world.linear(), kf.T_cam_world.translation());
-    Eigen::Vector3d X;
-    if (geometry::triangulateDLT(P1, anchor.pixel(p.anchorKeypoint), P2, kf.pixel(k), X)) {
-      const Eigen::Vector3d X_anchor = anchor.T_cam_world * X;
-      const Eigen::Vector3d bearingRef = anchor.camera.bearing(anchor.pixel(p.anchorKeypoint));
-      const Eigen::Vector3d t_ref_cur = anchor.T_cam_world * kf.cameraCenter();
-      if (X_anchor.z() > 0.0 && t_ref_cur.norm() > 0.0) {
-        const landmarks::DepthUncertainty tau = landmarks::depthUncertainty(
-            bearingRef, X_anchor.norm(), t_ref_cur, anchor.camera.fx, params.depthPixelNoise);
-        if (tau.valid && tau.tau2InverseDepth() > 0.0) {
-          const double alpha = p.descriptor.empty() || kf.descriptors.empty()
-                                   ? 1.0
-                                   : landmarks::matchingAccuracyFromDescriptors(
-                                         p.descriptor, kf.descriptors.row(static_cast<int>(k)),
-                                         params.pointModel.matching.hammingMaxDistance);
-          const double d = 1.0 / X_anchor.z();
-          if (!kf.semanticProbabilities.empty()) {
-            const auto& c = kf.semanticProbabilities.at(k);
-            model.observe(state, d, tau.tau2InverseDepth(), alpha, {c[0], c[1], c[2]});
-          } else {
-            model.updateDepth(state, d, tau.tau2InverseDepth(), alpha);
-          }
-          updated = true;
-        }
-      }
-    }
-  } else if (!kf.semanticProbabilities.empty() && state.semanticUpdates == 0) {
-    // The anchor observation carries no depth measurement but its semantics count (eq. 3.10).
-    const auto& c = kf.semanticProbabilities.at(k);
-    model.addSemanticObservation(state, {c[0], c[1], c[2]}, 1.0);
+    map::PointMeasurement m;
+    m.T_cam_world = kf.T_cam_world;
+    m.camera = kf.camera;
+    m.pixel = kf.pixel(k);
+    if (!kf.descriptors.empty()) m.descriptor = kf.descriptors.row(static_cast<int>(k));
+    m.classProbabilities = classes;
+    return policy.observe(map, p, m);
   }
-  p.landmarkState = encodeKeypointState(state);
-  return updated;
+  landmarks::KeypointState state = policy.stateOf(p);
+  if (state.semanticUpdates == 0) {
+    policy.keypointModel().addSemanticObservation(state, policy.classEvidence(classes), 1.0);
+    p.landmarkState = encodeKeypointState(state);
+  }
+  return false;
 }
 
 // ------------------------------------------------------------------------------------ 1. ProcessNewKeyFrame
 
-void LocalMapper::processNewKeyFrame(KeyFrameId kfId, const std::vector<MapPointId>& recentlyAddedByTracking) {
+void LocalMapper::processNewKeyFrame(KeyFrameId kfId, const std::vector<MapPointId>& recentlyAddedByTracking,
+                                     bool measuredByTracking) {
   if (!map_.hasKeyFrame(kfId)) throw Error("LocalMapper: keyframe " + std::to_string(kfId) + " is not in the map");
   for (MapPointId id : map_.pointsOf(kfId)) {
     if (map_.mapPoint(id).bad) continue;
     // The model update first: alpha compares the keypoint with the descriptor the tracker matched against.
-    if (model() != landmarks::MapPointModel::Heuristic &&
-        updateLandmarkState(map_, impl_->modelPolicy->keypointModel(), params_, id, kfId))
+    // A keyframe the tracker measured (Tracker::track updates every point it matched) is not counted twice.
+    if (model() != landmarks::MapPointModel::Heuristic && !measuredByTracking &&
+        updateLandmarkState(map_, *impl_->modelPolicy, id, kfId))
       ++landmarkUpdates_;
     map_.updateNormalAndDepth(id);
     map_.computeDistinctiveDescriptor(id);
@@ -196,12 +163,13 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
   }
   recent_ = std::move(stillRecent);
   // Probabilistic model: phi needs several depth updates (cullMinDepthUpdates) before the policy may cull, more
-  // than ORB-SLAM's three-keyframe probation, so every point the keyframe just measured is checked as well.
+  // than ORB-SLAM's three-keyframe probation, so every point the keyframe just measured is checked by the
+  // model's own rule as well (ORB-SLAM's rules stay with the recent points).
   if (model() == landmarks::MapPointModel::Probabilistic && map_.hasKeyFrame(kfId))
     for (MapPointId id : map_.pointsOf(kfId)) {
       if (!map_.hasMapPoint(id)) continue;
       const MapPoint& p = map_.mapPoint(id);
-      if (impl_->usePolicy->shouldCull(p, kfId)) {
+      if (p.bad || impl_->modelPolicy->inlierRatioSaysCull(p)) {
         map_.eraseMapPoint(id);
         ++culled;
       }
@@ -305,7 +273,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
     const double medianDepth2 = sceneMedianDepth(map_, kf2);
     if (medianDepth2 <= 0.0 || (O2 - O1).norm() / medianDepth2 < params_.minBaselineRatio) continue;
 
-    const Eigen::Matrix3d K1 = intrinsicMatrix(kf1.camera), K2 = intrinsicMatrix(kf2.camera);
+    const Eigen::Matrix3d K1 = kf1.camera.K(), K2 = kf2.camera.K();
     const Eigen::Matrix3d R1 = kf1.T_cam_world.linear(), R2 = kf2.T_cam_world.linear();
     const Eigen::Vector3d t1 = kf1.T_cam_world.translation(), t2 = kf2.T_cam_world.translation();
     const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(K1, R1, t1, K2, R2, t2);
@@ -356,17 +324,16 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
         const double variance = tau.valid && tau.tau2InverseDepth() > 0.0 ? tau.tau2InverseDepth()
                                                                           : initialInverseDepthVariance(params_.pointModel.keypoint);
         landmarks::KeypointState state = impl_->modelPolicy->keypointModel().initialize(p.inverseDepthAlongZ(), variance);
-        if (!kf1.semanticProbabilities.empty()) {
-          const auto& c1 = kf1.semanticProbabilities.at(m.i1);
-          impl_->modelPolicy->keypointModel().addSemanticObservation(state, {c1[0], c1[1], c1[2]}, 1.0);
-        }
-        if (!kf2.semanticProbabilities.empty()) {
-          const auto& c2 = kf2.semanticProbabilities.at(m.i2);
-          const double alpha = landmarks::matchingAccuracyFromDescriptors(
-              kf1.descriptors.row(static_cast<int>(m.i1)), kf2.descriptors.row(static_cast<int>(m.i2)),
-              params_.pointModel.matching.hammingMaxDistance);
-          impl_->modelPolicy->keypointModel().addSemanticObservation(state, {c2[0], c2[1], c2[2]}, alpha);
-        }
+        const MapPointModelPolicy& policy = *impl_->modelPolicy;
+        policy.keypointModel().addSemanticObservation(
+            state, policy.classEvidence(kf1.semanticProbabilities.empty() ? nullptr : &kf1.semanticProbabilities.at(m.i1)),
+            1.0);
+        const double alpha = landmarks::matchingAccuracyFromDescriptors(
+            kf1.descriptors.row(static_cast<int>(m.i1)), kf2.descriptors.row(static_cast<int>(m.i2)),
+            params_.pointModel.matching.hammingMaxDistance);
+        policy.keypointModel().addSemanticObservation(
+            state, policy.classEvidence(kf2.semanticProbabilities.empty() ? nullptr : &kf2.semanticProbabilities.at(m.i2)),
+            alpha);
         p.landmarkState = encodeKeypointState(state);
       }
       created.push_back(id);
@@ -507,12 +474,13 @@ int LocalMapper::cullKeyFrames(KeyFrameId kfId) {
 
 // ------------------------------------------------------------------------------------ all steps
 
-LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vector<MapPointId>& recentlyAddedByTracking) {
+LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vector<MapPointId>& recentlyAddedByTracking,
+                                                bool measuredByTracking) {
   LocalMappingReport report;
   const auto t0 = Clock::now();
   landmarkUpdates_ = 0;
   auto t = Clock::now();
-  processNewKeyFrame(kfId, recentlyAddedByTracking);
+  processNewKeyFrame(kfId, recentlyAddedByTracking, measuredByTracking);
   report.processMs = msSince(t);
 
   t = Clock::now();

@@ -490,8 +490,10 @@ TEST(LocalMapper, ProbabilisticCullingFollowsTheKeypointModel) {
   params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
   const landmarks::KeypointModel model(params.pointModel.keypoint);
   landmarks::KeypointState outlier = model.initialize(0.2, 1e-4);
+  // Far enough below the culling ratio that the static class evidence of a view without SEMANTIC (a_sem ~ 5,
+  // PointModelParams::semantic) does not lift it back above.
   outlier.aObs = 1.0;
-  outlier.bObs = 40.0;
+  outlier.bObs = 80.0;
   outlier.depthUpdates = params.pointModel.policy.cullMinDepthUpdates;
   ASSERT_LT(model.inlierRatio(outlier), params.pointModel.policy.cullInlierRatio);
   map.mutableMapPoint(ids[0]).landmarkState = encodeKeypointState(outlier);

@@ -88,10 +88,10 @@ struct System::Impl {
   }
 
   /// Runs local mapping on `kfs` (caller holds mapMutex in threaded mode).
-  void mapKeyFrames(const std::vector<map::KeyFrameId>& kfs) {
+  void mapKeyFrames(const std::vector<map::KeyFrameId>& kfs, bool measuredByTracking) {
     for (map::KeyFrameId kf : kfs) {
       if (!map.hasKeyFrame(kf)) continue;  // erased meanwhile
-      const mapping::LocalMappingReport r = mapper->processKeyFrame(kf, {});
+      const mapping::LocalMappingReport r = mapper->processKeyFrame(kf, {}, measuredByTracking);
       mappingLog.push_back({{"generation", generation},
                             {"keyframe", kf},
                             {"new_points", r.newPoints},
@@ -109,7 +109,7 @@ struct System::Impl {
 
   void mappingLoop() {
     for (;;) {
-      std::pair<int, map::KeyFrameId> item;
+      std::pair<int, QueuedKeyFrame> item;
       {
         std::unique_lock<std::mutex> lk(queueMutex);
         queueCv.wait(lk, [&] { return stop || !queue.empty(); });
@@ -121,7 +121,7 @@ struct System::Impl {
       {
         std::lock_guard<std::mutex> mk(mapMutex);
         // Keyframe ids restart after a reset: a queued id of an older map generation is stale.
-        if (item.first == generation && mappingEnabled) mapKeyFrames({item.second});
+        if (item.first == generation && mappingEnabled) mapKeyFrames({item.second.keyFrame}, item.second.measuredByTracking);
       }
       {
         std::lock_guard<std::mutex> lk(queueMutex);
@@ -162,7 +162,11 @@ struct System::Impl {
   mutable std::mutex mapMutex;
   std::mutex queueMutex;
   std::condition_variable queueCv;
-  std::deque<std::pair<int, map::KeyFrameId>> queue;  ///< (generation, keyframe)
+  struct QueuedKeyFrame {
+    map::KeyFrameId keyFrame = map::kNoKeyFrame;
+    bool measuredByTracking = false;
+  };
+  std::deque<std::pair<int, QueuedKeyFrame>> queue;  ///< (generation, keyframe)
   bool busy = false;
   bool stop = false;
   std::thread worker;
@@ -232,7 +236,14 @@ TrackResult System::track(const datasets::Frame& input) {
     tracking::Frame frame;
     {
       ScopedStage st(s.trackingTimings, "extraction");
-      frame = tracking::makeFrame(input, s.camera, s.tracker->initialized() ? s.extractor : s.initExtractor,
+      // [PointModel] semantic = false: the SEMANTIC channel is not used anywhere (point model, initializer).
+      datasets::Frame withoutSemantic;
+      const bool dropSemantic = !s.params.pointModel.semantic && input.hasSemantic();
+      if (dropSemantic) {
+        withoutSemantic = input;
+        withoutSemantic.semantic = cv::Mat();
+      }
+      frame = tracking::makeFrame(dropSemantic ? withoutSemantic : input, s.camera, s.tracker->initialized() ? s.extractor : s.initExtractor,
                                   ctx + " (t=" + std::to_string(input.timestamp) + ")");
     }
     if (s.threaded) {
@@ -254,11 +265,11 @@ TrackResult System::track(const datasets::Frame& input) {
   // Local mapping: in this thread (sequential, deterministic) or queued for the mapping thread.
   if (s.mappingEnabled && !res.newKeyFrames.empty()) {
     if (!s.threaded) {
-      s.mapKeyFrames(res.newKeyFrames);
+      s.mapKeyFrames(res.newKeyFrames, res.measuredByTracking);
     } else {
       {
         std::lock_guard<std::mutex> lk(s.queueMutex);
-        for (map::KeyFrameId kf : res.newKeyFrames) s.queue.emplace_back(s.generation, kf);
+        for (map::KeyFrameId kf : res.newKeyFrames) s.queue.emplace_back(s.generation, Impl::QueuedKeyFrame{kf, res.measuredByTracking});
       }
       s.queueCv.notify_all();
     }

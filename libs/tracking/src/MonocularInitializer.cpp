@@ -50,6 +50,7 @@ InitializationOutcome MonocularInitializer::process(Frame& current, map::Map& ma
   features::InitMatchParams mp;
   mp.windowHalfSize = params_.windowHalfSize;
   mp.nnRatio = params_.nnRatio;
+  mp.maxOctave1 = params_.maxOctave;
   std::vector<cv::Point2f> prevMatched = prevMatched_;
   auto matches = features::matchForInitialization(reference_->keypoints, reference_->descriptors,
                                                   current.keypoints, current.descriptors, current.grid,

@@ -25,6 +25,7 @@ nlohmann::json FrameReport::toJson() const {
   return {{"index", index},       {"timestamp", timestamp}, {"status", toString(status)},
           {"method", method},     {"features", features},   {"matches", matches},
           {"inliers", inliers},   {"local_map_points", localMapPoints}, {"keyframe", keyFrame},
+          {"active_matches", activeMatches}, {"inactive_matches", inactiveMatches}, {"model_updates", modelUpdates},
           {"map_points", mapPoints}, {"keyframes", keyFrames}, {"message", message}};
 }
 
@@ -80,7 +81,29 @@ void Tracker::reset() {
   last_ = Frame();
 }
 
+void Tracker::recordMeasurements(const Frame& frame) {
+  if (!policy_ || !policy_->learnsFromMeasurements() || !mapUpdates_) return;
+  for (std::size_t i = 0; i < frame.size(); ++i)
+    if (frame.mapPointIds[i] != map::kNoMapPoint) measured_[frame.mapPointIds[i]] = i;
+}
+
+int Tracker::updatePointModels(const Frame& frame) {
+  int updates = 0;
+  for (const auto& [id, i] : measured_) {
+    if (!measurable(id)) continue;
+    map::PointMeasurement m;
+    m.T_cam_world = frame.T_cam_world;
+    m.camera = frame.camera;
+    m.pixel = frame.pixel(i);
+    m.descriptor = frame.descriptors.row(static_cast<int>(i));
+    m.classProbabilities = frame.semanticProbabilities.empty() ? nullptr : &frame.semanticProbabilities[i];
+    if (policy_->observe(map_, map_.mutableMapPoint(id), m)) ++updates;
+  }
+  return updates;
+}
+
 int Tracker::optimizeFramePose(Frame& frame) {
+  recordMeasurements(frame);
   std::vector<optimize::PoseObservation> obs;
   std::vector<std::size_t> keypointOf;
   std::vector<std::size_t> evidence;  ///< matches of points the policy does not let us use (§3.4.2: measured only)
@@ -146,6 +169,7 @@ int Tracker::optimizeFramePose(Frame& frame) {
 
 bool Tracker::trackWithMotionModel(Frame& frame) {
   frame.resetMatches();
+  measured_.clear();  // only the matches of the attempt that succeeds are measurements
   frame.T_cam_world = velocity_ * last_.T_cam_world;
   std::vector<ProjectionCandidate> cands;
   for (std::size_t i = 0; i < last_.size(); ++i) {
@@ -179,6 +203,7 @@ bool Tracker::trackWithMotionModel(Frame& frame) {
 
 bool Tracker::trackReferenceKeyFrame(Frame& frame) {
   frame.resetMatches();
+  measured_.clear();
   if (!map_.hasKeyFrame(referenceKeyFrame_)) return false;
   const map::KeyFrame& kf = map_.keyFrame(referenceKeyFrame_);
   // Descriptor matching of the keyframe's map points against all frame keypoints (stands in for ORB-SLAM's
@@ -326,6 +351,7 @@ bool Tracker::relocalize(Frame& frame) {
     const geometry::PnpResult pnp = geometry::solvePnpRansac(camera_, pts, pixels, params_.pnp);
     if (!pnp.success) continue;
     frame.resetMatches();
+    measured_.clear();
     for (std::size_t m = 0; m < c.matches.size(); ++m)
       if (pnp.inliers[m]) frame.mapPointIds[c.matches[m].first] = c.matches[m].second;
     frame.T_cam_world = Eigen::Isometry3d::Identity();
@@ -393,6 +419,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   rep.timestamp = frame.timestamp;
   rep.features = static_cast<int>(frame.size());
   frame.resetMatches();
+  measured_.clear();
 
   if (!initialized_) {
     rep.status = FrameStatus::Initializing;
@@ -485,6 +512,19 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
 
   lost_ = false;
   rep.status = relocalized ? FrameStatus::Relocalized : FrameStatus::Tracking;
+  // §3.4.2: "with each new frame we update the semantic class probabilities, the depth mean, depth variance
+  // and the inlier model parameters" of every point the frame measured, before the keyframe decision reads
+  // which points are active.
+  if (!measured_.empty()) {
+    ScopedStage st(timings, "point_model");
+    rep.modelUpdates = updatePointModels(frame);
+    res.measuredByTracking = true;
+  }
+  for (std::size_t i = 0; i < frame.size(); ++i) {
+    const map::MapPointId id = frame.mapPointIds[i];
+    if (id == map::kNoMapPoint || frame.outlier[i]) continue;
+    (usable(id) ? rep.activeMatches : rep.inactiveMatches)++;
+  }
   if (last_.hasPose && !relocalized) {
     velocity_ = frame.T_cam_world * last_.T_cam_world.inverse();
     haveVelocity_ = true;
@@ -499,7 +539,10 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   // ORB-SLAM's TrackedMapPoints over the points the policy lets us use (§3.4.3).
   if (map_.hasKeyFrame(referenceKeyFrame_))
     kin.referenceTrackedPoints = map_.trackedMapPoints(referenceKeyFrame_, kin.numKeyFrames <= 2 ? 2 : 3, policy_.get());
-  kin.trackedInliers = rep.inliers;
+  // With a point model, the matches of the points active after this frame's update (§3.4.3: "we only consider
+  // active points based on the current inlier estimate in the decision"); new points that this frame's
+  // measurement activated count, as they do in the reference keyframe's count.
+  kin.trackedInliers = policy_ ? rep.activeMatches : rep.inliers;
   kin.localMappingIdle = localMappingIdle_;
   if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {
     res.newKeyFrames.push_back(createKeyFrame(frame));

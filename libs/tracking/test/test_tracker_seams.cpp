@@ -2,6 +2,7 @@
 // searches, pose optimization, keyframe decision), the pose-solver and initializer factories (unknown names
 // are errors listing the known ones; registered implementations are reached by name), and the rotation prior.
 #include <array>
+#include <map>
 #include <random>
 #include <set>
 
@@ -116,6 +117,53 @@ TEST(TrackerSeams, PoseOptimizationNeverUsesAPointThePolicyRefuses) {
   EXPECT_LT(refused[0], all[0]);
   EXPECT_GT(refused[2], 50);
   EXPECT_GT(refused[3], 50);
+}
+
+namespace {
+/// Refuses odd ids like OddIdsRefused and counts the measurements the tracker hands to the model.
+class CountingLearner : public OddIdsRefused {
+ public:
+  bool learnsFromMeasurements() const override { return true; }
+  bool observe(const map::Map&, map::MapPoint& p, const map::PointMeasurement& m) const override {
+    ++(*counts)[p.id];
+    if (!(m.T_cam_world.translation().allFinite() && m.descriptor.cols == 32)) ++(*malformed);
+    return true;
+  }
+  std::shared_ptr<std::map<map::MapPointId, int>> counts = std::make_shared<std::map<map::MapPointId, int>>();
+  std::shared_ptr<int> malformed = std::make_shared<int>(0);
+};
+}  // namespace
+
+// §3.4.2: every point a tracked frame measured gets exactly one update, used by the pose (even ids) or not (odd).
+TEST(TrackerSeams, EveryMatchOfATrackedFrameUpdatesItsPointOnce) {
+  World w;
+  tracking::Frame f = makeWorldAndFrame(w);
+  auto tracker = makeTracker(w);
+  auto learner = std::make_shared<CountingLearner>();
+  tracker->setPointUsePolicy(learner);
+  ASSERT_GT(tracker->trackLocalMap(f), 50);
+  const int updates = tracker->updatePointModels(f);
+  int odd = 0;
+  for (const auto& [id, n] : *learner->counts) {
+    EXPECT_EQ(n, 1) << "point " << id << " updated " << n << " times";
+    odd += id % 2;
+  }
+  EXPECT_EQ(updates, static_cast<int>(learner->counts->size()));
+  EXPECT_EQ(*learner->malformed, 0);
+  EXPECT_GT(odd, 50) << "points the policy refuses are measured too";
+  // Every match left in the frame was measured.
+  for (map::MapPointId id : f.mapPointIds)
+    if (id != map::kNoMapPoint) EXPECT_EQ(learner->counts->count(id), 1u) << "matched point " << id << " not measured";
+  // Localization only: nothing is recorded, nothing updated.
+  World w2;
+  tracking::Frame f2 = makeWorldAndFrame(w2);
+  auto t2 = makeTracker(w2);
+  auto l2 = std::make_shared<CountingLearner>();
+  t2->setPointUsePolicy(l2);
+  t2->setMapUpdatesEnabled(false);
+  t2->trackLocalMap(f2);
+  EXPECT_EQ(t2->updatePointModels(f2), 0);
+  EXPECT_TRUE(l2->counts->empty());
 }
 
 TEST(TrackerSeams, UsableAndMeasurable) {

@@ -18,14 +18,19 @@ struct PointModelParams {
   }();
   KeypointModelParams keypoint;    ///< used by the masking and probabilistic models
   MatchingAccuracyParams matching;
+  /// The SEMANTIC channel is the class evidence of the points (eq. 3.10). false, or a frame without the
+  /// channel: every keypoint counts as observed static (the segmentation that trusts everything), so the
+  /// geometric evidence alone decides.
+  bool semantic = true;
 
   /// Keys: model, minFoundRatio, ... (policy), initialCount, psiMin, A_static, ... (keypoint),
-  /// hammingMaxDistance, photometricMaxSsd (matching): all flat.
+  /// hammingMaxDistance, photometricMaxSsd (matching), semantic: all flat.
   template <class V>
   void visitFields(V& v) {
     v.flat(policy);
     v.flat(keypoint);
     v.flat(matching);
+    PSLAM_FIELD(v, semantic, params::anyValue, "use the SEMANTIC channel as class prior (false: all static)");
   }
   PSLAM_PARAMS("PointModel")
 };

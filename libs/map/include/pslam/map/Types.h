@@ -27,6 +27,12 @@ struct CameraIntrinsics {
   Eigen::Vector3d bearing(const Eigen::Vector2d& pixel) const {
     return Eigen::Vector3d((pixel.x() - cx) / fx, (pixel.y() - cy) / fy, 1.0).normalized();
   }
+  /// The 3x3 calibration matrix.
+  Eigen::Matrix3d K() const {
+    Eigen::Matrix3d k;
+    k << fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0;
+    return k;
+  }
   bool inImage(const Eigen::Vector2d& pixel) const {
     return pixel.x() >= 0.0 && pixel.y() >= 0.0 && pixel.x() < width && pixel.y() < height;
   }

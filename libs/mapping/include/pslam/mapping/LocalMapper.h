@@ -121,8 +121,11 @@ class LocalMapper {
   /// All steps for keyframe `kf`, which the tracker already inserted (Map::addKeyFrame) and linked to its
   /// matched points (Map::addObservation). `recentlyAddedByTracking`: points the tracker created for this
   /// keyframe (e.g. the initial map); they join the recent-point list checked by MapPointCulling.
+  /// `measuredByTracking`: the tracker already applied this keyframe's measurements to the points' models
+  /// (Tracker::track does for every frame it tracks; the two keyframes of the initial map are not).
   /// Throws pslam::Error if `kf` is not in the map.
-  LocalMappingReport processKeyFrame(map::KeyFrameId kf, const std::vector<map::MapPointId>& recentlyAddedByTracking);
+  LocalMappingReport processKeyFrame(map::KeyFrameId kf, const std::vector<map::MapPointId>& recentlyAddedByTracking,
+                                     bool measuredByTracking = false);
 
   /// Forgets the recent-point list (after the tracker cleared the map).
   void reset();
@@ -137,7 +140,8 @@ class LocalMapper {
   const std::vector<map::MapPointId>& recentPoints() const { return recent_; }
 
   // ---- individual steps (public for tests; processKeyFrame runs them in this order) ----
-  void processNewKeyFrame(map::KeyFrameId kf, const std::vector<map::MapPointId>& recentlyAddedByTracking);
+  void processNewKeyFrame(map::KeyFrameId kf, const std::vector<map::MapPointId>& recentlyAddedByTracking,
+                          bool measuredByTracking = false);
   int cullRecentPoints(map::KeyFrameId kf);
   std::vector<map::MapPointId> createNewMapPoints(map::KeyFrameId kf);
   int searchInNeighbors(map::KeyFrameId kf);

@@ -27,6 +27,8 @@ struct InitializerParams {
   int maxReferenceAge = 30;
   float windowHalfSize = 100.f;
   float nnRatio = 0.9f;
+  /// Reference keypoints above this pyramid level are not matched (ORB-SLAM: 0, only the finest level).
+  int maxOctave = 0;
   /// ORB-SLAM2 (monocular) extracts featureFactor x nFeatures keypoints while initializing: only level-0
   /// keypoints take part in SearchForInitialization, and enough matches are needed to keep a reference frame
   /// long enough for parallax to build up.
@@ -45,6 +47,7 @@ struct InitializerParams {
     PSLAM_FIELD(v, maxReferenceAge, atLeast(1), "frames: an older reference is replaced (not in ORB-SLAM)");
     PSLAM_FIELD(v, windowHalfSize, greaterThan(0), "SearchForInitialization window (px)");
     PSLAM_FIELD(v, nnRatio, inLeftOpen(0, 1), "SearchForInitialization ratio");
+    PSLAM_FIELD(v, maxOctave, inClosed(0, 31), "reference keypoints of levels 0..this are matched (ORB-SLAM: 0)");
     PSLAM_FIELD(v, featureFactor, inClosed(1, 10), "keypoints extracted while initializing = this x nFeatures");
     PSLAM_FIELD(v, minStaticProbability, inClosed(0, 1),
                 "with SEMANTIC: only keypoints with P(static) >= this initialize the map (§3.4.1: 0.8); 0 = all");

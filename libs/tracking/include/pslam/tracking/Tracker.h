@@ -80,6 +80,9 @@ struct FrameReport {
   int matches = 0;             ///< after motion / reference / relocalization search
   int inliers = 0;             ///< after local-map tracking
   int localMapPoints = 0;      ///< candidates projected in local-map tracking
+  int activeMatches = 0;       ///< final matches of points the policy lets tracking use (all of them: heuristic)
+  int inactiveMatches = 0;     ///< final matches of points it does not (kept as measurements only, §3.4.2)
+  int modelUpdates = 0;        ///< depth measurements applied to the points' models in this frame (§3.4.2)
   bool keyFrame = false;
   std::size_t mapPoints = 0, keyFrames = 0;
   std::string message;
@@ -99,6 +102,9 @@ class Tracker {
     Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
     /// Keyframes inserted by this call (initialization inserts two); local mapping should process them.
     std::vector<map::KeyFrameId> newKeyFrames;
+    /// The points' models already got this frame's measurements (LocalMapper::processKeyFrame's
+    /// measuredByTracking); false for the keyframes of a new initial map.
+    bool measuredByTracking = false;
     bool mapWasReset = false;
     /// The reference frame of a successful initialization (gets a pose retroactively), else nullopt.
     std::optional<std::pair<double, Eigen::Isometry3d>> initialReferencePose;
@@ -141,9 +147,16 @@ class Tracker {
   int trackLocalMap(Frame& frame, int* localCandidates = nullptr);
   bool relocalize(Frame& frame);
   map::KeyFrameId createKeyFrame(const Frame& frame);
+  /// §3.4.2: applies the measurements of the frame's matches (every match that entered pose optimization in
+  /// the tracking attempt that succeeded, outliers of the pose included) to the points' models. Returns the
+  /// number of depth updates. Nothing without a learning policy or in localization-only mode.
+  int updatePointModels(const Frame& frame);
 
  private:
   void updateLocalKeyFrames(const Frame& frame);
+  /// Every match of `frame` that entered pose optimization (keypoint per point, the last one wins), so that
+  /// outliers of the pose are measurements of their points too.
+  void recordMeasurements(const Frame& frame);
 
   map::Map& map_;
   geometry::PinholeCamera camera_;
@@ -166,6 +179,7 @@ class Tracker {
   bool localMappingIdle_ = true;
   std::vector<map::KeyFrameId> localKeyFrames_;
   StageTimings* timings_ = nullptr;  ///< of the current track() call
+  std::map<map::MapPointId, std::size_t> measured_;  ///< of the current track() call (recordMeasurements)
 };
 
 }  // namespace pslam::tracking
