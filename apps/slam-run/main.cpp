@@ -6,7 +6,7 @@
 #include "pslam/apps/SlamRunApp.h"
 
 int main(int argc, char** argv) {
-  CLI::App cli{"Monocular SLAM on a rawlog: trajectory.txt, keyframes.txt, map.slammap, report.json"};
+  CLI::App cli{"Monocular SLAM on a rawlog: trajectory.txt, keyframes.txt, map.slammap, depths.txt, report.json"};
   pslam::apps::SlamRunOptions o;
   std::string config, rawlog, out;
   long long first = 0;

@@ -1,6 +1,7 @@
 #include "pslam/apps/SlamRunApp.h"
 
 #include <chrono>
+#include <cmath>
 #include <iomanip>
 #include <sstream>
 
@@ -12,6 +13,31 @@
 #include "pslam/system/System.h"
 
 namespace pslam::apps {
+
+namespace {
+
+/// The map-point depths of every keyframe, in the format `slam-eval --depths` reads (timestamp u v depth, see
+/// pslam/eval/DepthRatio.h): one line per keyframe observation of a good point, depth along the keyframe's
+/// optical axis in the map's units. The pixel is the undistorted keypoint (equal to the image pixel for the
+/// rectified and synthetic cameras DR is evaluated on).
+void writeMapPointDepths(const map::Map& map, const std::filesystem::path& path) {
+  writeFileAtomically(path, [&](std::ostream& os) {
+    os << "# slam-run: map-point depths per keyframe observation (slam-eval --depths)\n# timestamp u v depth\n";
+    os << std::setprecision(17);
+    for (const auto& [kfId, kf] : map.keyFrames())
+      for (std::size_t k = 0; k < kf.mapPointIds.size(); ++k) {
+        const map::MapPointId id = kf.mapPointIds[k];
+        if (id == map::kNoMapPoint || !map.hasMapPoint(id) || map.mapPoint(id).bad) continue;
+        const double z = (kf.T_cam_world * map.worldPosition(id)).z();
+        if (!(z > 0) || !std::isfinite(z)) continue;
+        const Eigen::Vector2d uv = kf.pixel(k);
+        os << kf.timestamp << ' ' << std::setprecision(9) << uv.x() << ' ' << uv.y() << ' ' << z
+           << std::setprecision(17) << '\n';
+      }
+  });
+}
+
+}  // namespace
 
 nlohmann::json SlamRunSummary::toJson() const {
   return {{"frames_read", framesRead},
@@ -97,6 +123,7 @@ SlamRunSummary SlamRunApp::run() {
   writeTumTrajectory(options_.outDir / "trajectory.txt", slam.trajectory(), "slam-run: every tracked frame, T_world_cam");
   writeTumTrajectory(options_.outDir / "keyframes.txt", slam.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
   slam.saveMap(options_.outDir / "map.slammap");
+  writeMapPointDepths(slam.mapSnapshot(), options_.outDir / "depths.txt");
   sum.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   sum.cpuSeconds = system::processCpuSeconds() - cpu0;
 

@@ -4,6 +4,7 @@
 //   trajectory.txt  every tracked frame (TUM, camera-to-world), System::trajectory()
 //   keyframes.txt   keyframe poses (TUM), System::keyFrameTrajectory()
 //   map.slammap     the map (System::saveMap)
+//   depths.txt      map-point depths per keyframe observation, for `slam-eval --depths` (DR, eq. 2.104)
 //   report.json     System::report() + the run's inputs (rawlog, config file, overrides, frame range)
 // Every file is written atomically.
 #include <cstdint>
