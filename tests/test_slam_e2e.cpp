@@ -21,6 +21,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam/eval/DepthRatio.h"
 #include "pslam/eval/Metrics.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/apps/SlamRunApp.h"
@@ -67,8 +68,10 @@ const fs::path& roomRawlog() {
 }
 
 apps::SlamRunSummary runSlam(const fs::path& out, std::uint32_t seed = 1, bool threaded = false,
-                               const fs::path& rawlog = roomRawlog(), const fs::path& config = kConfig) {
+                               const fs::path& rawlog = roomRawlog(), const fs::path& config = kConfig,
+                               const std::vector<std::string>& overrides = {}) {
   apps::SlamRunOptions o;
+  o.overrides = overrides;
   o.config = config;
   o.rawlog = rawlog;
   o.outDir = out;
@@ -182,6 +185,47 @@ TEST(SlamE2E, SameSeedGivesBitIdenticalTrajectories) {
   ASSERT_GE(readTumTrajectory(a / "trajectory.txt").size(), 20u);
   EXPECT_EQ(ta, readText(b / "trajectory.txt"));
   EXPECT_EQ(readText(a / "keyframes.txt"), readText(b / "keyframes.txt"));
+}
+
+// §3.4.2 end to end: the probabilistic model without semantics tracks the room, every tracked frame feeds the
+// points' models, the run repeats bit for bit, and the map-point depths of depths.txt are mostly right (DR).
+TEST(SlamE2E, ProbabilisticModelLearnsFromEveryTrackedFrameDeterministically) {
+  const std::vector<std::string> sets{"PointModel.model=probabilistic", "PointModel.semantic=false"};
+  const fs::path a = tempRoot() / "prob_a", b = tempRoot() / "prob_b";
+  const auto s = runSlam(a, 5, false, roomRawlog(), kConfig, sets);
+  runSlam(b, 5, false, roomRawlog(), kConfig, sets);
+  ASSERT_TRUE(s.initialized());
+  EXPECT_GE(s.framesTracked, static_cast<std::size_t>(kFrames / 2));
+  EXPECT_EQ(readText(a / "trajectory.txt"), readText(b / "trajectory.txt"));
+  EXPECT_EQ(readText(a / "depths.txt"), readText(b / "depths.txt"));
+  const auto report = nlohmann::json::parse(readText(a / "report.json"));
+  EXPECT_EQ(report["point_policy"], "probabilistic");
+  int tracked = 0, learned = 0, active = 0;
+  for (const auto& f : report["frames"]) {
+    if (f["status"] != "tracking" || f["method"] == "initializer") continue;
+    ++tracked;
+    learned += f["model_updates"].get<int>() > 0 ? 1 : 0;
+    active += f["active_matches"].get<int>();
+  }
+  ASSERT_GT(tracked, 10);
+  EXPECT_EQ(learned, tracked) << "a tracked frame did not update any point model";
+  EXPECT_GT(active, 30 * tracked);
+  // DR (eq. 2.104) of the run's depths against the DEPTH channel, scaled by the Sim(3) alignment.
+  const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
+  const Trajectory est = readTumTrajectory(a / "trajectory.txt");
+  Trajectory g, e;
+  for (const auto& p : est)
+    for (const auto& q : gt)
+      if (std::abs(q.timestamp - p.timestamp) < 1e-4) {
+        g.push_back(q);
+        e.push_back(p);
+        break;
+      }
+  eval::DepthRatioOptions dro;
+  dro.scale = eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3).scale;
+  const auto dr = eval::computeDepthRatio(eval::readDepthSamples(a / "depths.txt"), roomRawlog(), dro);
+  EXPECT_GT(dr.evaluated, 500u);
+  EXPECT_GT(dr.ratio, 0.8) << "map-point depths of a static room should be within 10 % of the truth";
 }
 
 TEST(SlamE2E, ThreadedModeTracks) {
