@@ -15,13 +15,16 @@
 #                    100-match / 100-point initializer thresholds halved (minMatches = minMapPoints = 50): the
 #                    filter removes 70-85 % of the jam's keypoints (doc/experiments.md)
 #   prob-semantic-noinit  the same without the initialization filter (minStaticProbability=0)
-# Outputs: DIR/<mode>/ (slam-run outputs + eval.json), DIR/table.md (appended rows).
+#   --table-only     no runs: the rows from the outputs already in DIR
+# Outputs: DIR/<mode>/ (slam-run outputs + eval.json), DIR/table.md (appended rows). ATE is over the poses of
+# trajectory.txt (the final map after any reset), their number in parentheses.
 set -euo pipefail
 
 BIN=build/bin
 SEED=1
 NAME=""
 MODES="heuristic masking probabilistic prob-semantic prob-semantic-noinit"
+TABLE_ONLY=0
 RAWLOG="" GT="" CONFIG="" OUT=""
 while [[ $# -gt 0 ]]; do
   case "$1" in
@@ -33,7 +36,8 @@ while [[ $# -gt 0 ]]; do
     --name) NAME=$2; shift 2 ;;
     --bin) BIN=$2; shift 2 ;;
     --modes) MODES=$2; shift 2 ;;
-    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
+    --table-only) TABLE_ONLY=1; shift ;;
+    -h|--help) sed -n 2,21p "$0"; exit 0 ;;
     *) echo "experiments-ch3: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -61,12 +65,13 @@ overrides() {
 }
 
 [[ -f "$OUT/table.md" ]] || {
-  echo "| sequence | seed | model | init frame | tracked % | ATE rmse [m] | RPE t rmse [m] | DR [%] | CPU ms/frame | command |"
+  echo "| sequence | seed | model | init frame | tracked % | ATE rmse [m] (poses) | RPE t rmse [m] | DR [%] | CPU ms/frame | command |"
   echo "|---|---|---|---|---|---|---|---|---|---|"
 } > "$OUT/table.md"
 
 for mode in $MODES; do
   dir="$OUT/$mode"
+  if [[ $TABLE_ONLY == 0 ]]; then
   # shellcheck disable=SC2046
   "$BIN/slam-run" --config "$CONFIG" --rawlog "$RAWLOG" --out "$dir" --seed "$SEED" -q $(overrides "$mode")
   evalArgs=("$GT" "$dir/trajectory.txt" --align sim3 --json "$dir/eval.json")
@@ -75,6 +80,7 @@ for mode in $MODES; do
   if [[ -s "$dir/trajectory.txt" ]] && grep -qv '^#' "$dir/trajectory.txt"; then
     "$BIN/slam-eval" "${evalArgs[@]}" "${drArgs[@]}" > "$dir/eval.txt" 2>&1 ||
       "$BIN/slam-eval" "${evalArgs[@]}" > "$dir/eval.txt" 2>&1 || true
+  fi
   fi
   python3 - "$dir" "$NAME" "$SEED" "$mode" "$(overrides "$mode")" >> "$OUT/table.md" <<'EOF'
 import json, os, sys
@@ -88,7 +94,7 @@ ate = rpe = dr = "-"
 ev = os.path.join(d, "eval.json")
 if os.path.exists(ev):
     e = json.load(open(ev))
-    ate = "%.3f" % e["ate"]["rmse"]
+    ate = "%.3f (%d)" % (e["ate"]["rmse"], e["ate"]["count"])
     if "rpe" in e and "translation" in e["rpe"]:
         rpe = "%.3f" % e["rpe"]["translation"]["rmse"]
     if "dr" in e:
