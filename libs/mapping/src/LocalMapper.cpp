@@ -144,8 +144,9 @@ void LocalMapper::processNewKeyFrame(KeyFrameId kfId, const std::vector<MapPoint
 
 // ------------------------------------------------------------------------------------ 2. MapPointCulling
 
-int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
+int LocalMapper::cullRecentPoints(KeyFrameId kfId, int* byInlierRatio) {
   int culled = 0;
+  if (byInlierRatio) *byInlierRatio = 0;
   const auto current = static_cast<std::int64_t>(kfId);
   std::vector<MapPointId> stillRecent;
   for (MapPointId id : recent_) {
@@ -172,6 +173,7 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId) {
       if (p.bad || impl_->modelPolicy->inlierRatioSaysCull(p)) {
         map_.eraseMapPoint(id);
         ++culled;
+        if (byInlierRatio) ++*byInlierRatio;
       }
     }
   return culled;
@@ -484,7 +486,8 @@ LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vect
   report.processMs = msSince(t);
 
   t = Clock::now();
-  report.culledPoints = cullRecentPoints(kfId);
+  report.culledPoints = cullRecentPoints(kfId, &report.culledInlierRatio);
+  report.culledRecent = report.culledPoints - report.culledInlierRatio;
   report.cullPointsMs = msSince(t);
 
   t = Clock::now();

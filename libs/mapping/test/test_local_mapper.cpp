@@ -508,7 +508,9 @@ TEST(LocalMapper, ProbabilisticCullingFollowsTheKeypointModel) {
   // Also once out of probation: a point the new keyframe observes is checked by the policy.
   map.mutableMapPoint(ids[1]).landmarkState = encodeKeypointState(outlier);
   mapper.reset();
-  EXPECT_EQ(mapper.cullRecentPoints(s.keyframes[1]), 1);
+  int byInlierRatio = -1;
+  EXPECT_EQ(mapper.cullRecentPoints(s.keyframes[1], &byInlierRatio), 1);
+  EXPECT_EQ(byInlierRatio, 1) << "culled by the phi rule, not by ORB-SLAM's recent-point rules";
   EXPECT_FALSE(map.hasMapPoint(ids[1]));
 }
 

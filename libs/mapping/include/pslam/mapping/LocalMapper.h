@@ -96,7 +96,9 @@ struct LocalMappingParams {
 struct LocalMappingReport {
   int newPoints = 0;            ///< created by createNewMapPoints
   int fusedPoints = 0;          ///< duplicates merged (map::fuseMapPoints) + observations added by fusion
-  int culledPoints = 0;         ///< recent points erased by MapPointCulling
+  int culledPoints = 0;         ///< points erased by MapPointCulling (the sum of the two below)
+  int culledRecent = 0;         ///< ... recent points, by the policy's rule (ORB-SLAM's; probabilistic: + phi)
+  int culledInlierRatio = 0;    ///< ... points past probation, by the probabilistic model's phi rule
   int culledKeyFrames = 0;      ///< redundant keyframes erased
   int baObservationsErased = 0; ///< outlier observations removed after local BA
   int baPointsErased = 0;       ///< points that lost their last observation in local BA
@@ -142,7 +144,9 @@ class LocalMapper {
   // ---- individual steps (public for tests; processKeyFrame runs them in this order) ----
   void processNewKeyFrame(map::KeyFrameId kf, const std::vector<map::MapPointId>& recentlyAddedByTracking,
                           bool measuredByTracking = false);
-  int cullRecentPoints(map::KeyFrameId kf);
+  /// Returns the points erased; `byInlierRatio` (optional) gets those of the probabilistic model's own rule on
+  /// points past probation.
+  int cullRecentPoints(map::KeyFrameId kf, int* byInlierRatio = nullptr);
   std::vector<map::MapPointId> createNewMapPoints(map::KeyFrameId kf);
   int searchInNeighbors(map::KeyFrameId kf);
   optimize::MapUpdateSummary runLocalBundleAdjustment(map::KeyFrameId kf, optimize::BAResult* result = nullptr);
