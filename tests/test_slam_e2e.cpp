@@ -313,6 +313,31 @@ TEST(SlamE2E, BadInputsAreNamed) {
   EXPECT_FALSE(fs::exists(out / "trajectory.txt"));
 }
 
+// Reliability (doc/reliability.md): an output folder whose map.slammap is a folder keeps it, and the run writes
+// none of its outputs; an output that is an input is refused.
+TEST(SlamE2E, OutputsNeverReplaceAFolderOrAnInput) {
+  const fs::path out = tempRoot() / "folder_map";
+  fs::create_directories(out / "map.slammap");
+  std::ofstream(out / "map.slammap" / "notes.txt") << "precious";
+  const std::string folderError = errorOf([&] { runSlam(out); });
+  EXPECT_NE(folderError.find("map.slammap: is a folder; refusing to replace it with a file"), std::string::npos)
+      << folderError;
+  EXPECT_EQ(readText(out / "map.slammap" / "notes.txt"), "precious");
+  for (const char* name : {"trajectory.txt", "keyframes.txt", "report.json"})
+    EXPECT_FALSE(fs::exists(out / name)) << name;
+  for (const auto& e : fs::directory_iterator(out))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+
+  // The config file is one of the outputs' names.
+  const fs::path out2 = tempRoot() / "config_is_output";
+  fs::create_directories(out2);
+  fs::copy_file(kConfig, out2 / "report.json");
+  const std::string config = readText(out2 / "report.json");
+  const std::string inputError = errorOf([&] { runSlam(out2, 1, false, roomRawlog(), out2 / "report.json"); });
+  EXPECT_NE(inputError.find("is the input"), std::string::npos) << inputError;
+  EXPECT_EQ(readText(out2 / "report.json"), config);
+}
+
 TEST(SlamE2E, FrameRangeIsRespected) {
   apps::SlamRunOptions o;
   o.config = kConfig;

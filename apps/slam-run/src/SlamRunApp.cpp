@@ -49,10 +49,18 @@ SlamRunSummary SlamRunApp::run() {
   const system::SlamParams params = system::loadSlamParams(options_.config.string(), options_.overrides);
   require(std::filesystem::is_regular_file(options_.rawlog), options_.rawlog.string(), "rawlog not found");
 
+  // All outputs are prepared before the run (none may be an input or replace a folder) and committed together.
+  std::vector<std::filesystem::path> inputs = datasets::RawlogWriter::inputFilesOf(options_.rawlog);
+  inputs.push_back(options_.config);
+  OutputSet outputs(inputs);
+  AtomicOutput& trajectoryOut = outputs.add(options_.outDir / "trajectory.txt");
+  AtomicOutput& keyFramesOut = outputs.add(options_.outDir / "keyframes.txt");
+  AtomicOutput& mapOut = outputs.add(options_.outDir / "map.slammap");
+  AtomicOutput& reportOut = outputs.add(options_.outDir / "report.json");
+
   const std::size_t total = datasets::RawlogReader::countFrames(options_.rawlog);
   require(total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
   datasets::RawlogReader reader(options_.rawlog);
-  std::filesystem::create_directories(options_.outDir);
 
   system::SystemOptions so;
   so.seed = options_.seed;
@@ -94,9 +102,9 @@ SlamRunSummary SlamRunApp::run() {
   sum.mapPoints = counts["map_points"];
   sum.resets = counts["resets"];
 
-  writeTumTrajectory(options_.outDir / "trajectory.txt", slam.trajectory(), "slam-run: every tracked frame, T_world_cam");
-  writeTumTrajectory(options_.outDir / "keyframes.txt", slam.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
-  slam.saveMap(options_.outDir / "map.slammap");
+  writeTumTrajectory(trajectoryOut.tempPath(), slam.trajectory(), "slam-run: every tracked frame, T_world_cam");
+  writeTumTrajectory(keyFramesOut.tempPath(), slam.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
+  slam.saveMap(mapOut.tempPath());
   sum.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   sum.cpuSeconds = system::processCpuSeconds() - cpu0;
 
@@ -109,7 +117,8 @@ SlamRunSummary SlamRunApp::run() {
   report["last"] = lastIndex;
   report["summary"] = sum.toJson();
   if (!sum.initialized()) report["warning"] = "initialization never succeeded: the trajectory is empty";
-  writeFileAtomically(options_.outDir / "report.json", [&](std::ostream& os) { os << report.dump(1) << "\n"; });
+  writeOutputFile(reportOut, [&](std::ostream& os) { os << report.dump(1) << "\n"; });
+  outputs.commit();
   progress.finish(sum.toText());
   return sum;
 }

@@ -82,8 +82,10 @@ bool decodeNormal(const cv::Vec3b& px, cv::Vec3d& n) {
 struct RawlogWriter::Impl {
   fs::path rawlogPath;
   std::string ext;
-  std::optional<AtomicOutput> rawlogOut;
-  std::optional<AtomicOutput> imagesOut;
+  std::optional<AtomicOutput> ownImages;  // without an OutputSet: the writer's own outputs
+  std::optional<AtomicOutput> ownRawlog;
+  AtomicOutput* rawlogOut = nullptr;
+  AtomicOutput* imagesOut = nullptr;
   mrpt::io::CFileGZOutputStream stream;
   std::optional<cv::Size> size;
   bool open = false;
@@ -93,18 +95,31 @@ fs::path RawlogWriter::imagesDirFor(const fs::path& rawlogPath) {
   return rawlogPath.parent_path() / (rawlogPath.stem().string() + "_Images");
 }
 
-RawlogWriter::RawlogWriter(fs::path rawlogPath, std::string imageExtension) : impl_(std::make_unique<Impl>()) {
+OutputKind RawlogWriter::imagesFolderKind() {
+  return OutputKind::folder("(CAMERA|SEMANTIC|NORMALS)_[0-9]{6,}\\.(png|bmp|tiff|ppm|pgm)");
+}
+
+std::vector<fs::path> RawlogWriter::inputFilesOf(const fs::path& rawlogPath) {
+  if (rawlogPath.empty()) return {};
+  return {rawlogPath, imagesDirFor(rawlogPath)};
+}
+
+RawlogWriter::RawlogWriter(fs::path rawlogPath, std::string imageExtension, OutputSet* outputs)
+    : impl_(std::make_unique<Impl>()) {
   auto& d = *impl_;
   d.rawlogPath = std::move(rawlogPath);
   d.ext = std::move(imageExtension);
   if (!d.ext.empty() && d.ext[0] == '.') d.ext.erase(0, 1);
   require(d.ext == "png" || d.ext == "bmp" || d.ext == "tiff" || d.ext == "ppm" || d.ext == "pgm",
           d.rawlogPath.string(), "image format '" + d.ext + "' is not lossless (use png, bmp, tiff, ppm or pgm)");
-  d.rawlogOut.emplace(d.rawlogPath);
-  d.imagesOut.emplace(imagesDirFor(d.rawlogPath));
-  std::error_code ec;
-  fs::create_directories(d.imagesOut->tempPath(), ec);
-  if (ec) throw Error(d.imagesOut->finalPath().string() + ": cannot create images folder (" + ec.message() + ")");
+  // Images first: committed in this order, a reader never sees the rawlog without its images.
+  if (outputs) {
+    d.imagesOut = &outputs->add(imagesDirFor(d.rawlogPath), imagesFolderKind());
+    d.rawlogOut = &outputs->add(d.rawlogPath);
+  } else {
+    d.imagesOut = &d.ownImages.emplace(imagesDirFor(d.rawlogPath), imagesFolderKind());
+    d.rawlogOut = &d.ownRawlog.emplace(d.rawlogPath);
+  }
   if (!d.stream.open(d.rawlogOut->tempPath().string(), 1))
     throw Error(d.rawlogPath.string() + ": cannot open for writing");
   d.open = true;
@@ -175,8 +190,8 @@ void RawlogWriter::commit() {
   require(d.open, d.rawlogPath.string(), "commit called twice");
   d.stream.close();
   d.open = false;
-  d.imagesOut->commit();
-  d.rawlogOut->commit();
+  if (d.ownImages) d.ownImages->commit();
+  if (d.ownRawlog) d.ownRawlog->commit();
 }
 
 // ------------------------------------------------------------------------------------------------ reader

@@ -5,7 +5,8 @@
 //   keyframes.txt   keyframe poses (TUM), System::keyFrameTrajectory()
 //   map.slammap     the map (System::saveMap)
 //   report.json     System::report() + the run's inputs (rawlog, config file, overrides, frame range)
-// Every file is written atomically.
+// Every file is written atomically; the four are prepared before the run (none may be an input or replace a
+// folder: pslam::OutputSet) and committed together at its end, so a failed run writes none of them.
 #include <cstdint>
 #include <filesystem>
 #include <string>

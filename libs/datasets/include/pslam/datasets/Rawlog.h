@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <mrpt/img/TCamera.h>
 #include <mrpt/poses/CPose3D.h>
@@ -55,11 +56,16 @@ cv::Vec3b encodeNormal(const cv::Vec3d& n);
 bool decodeNormal(const cv::Vec3b& px, cv::Vec3d& n);
 
 /// Writes frames to `<path>` and their images to `<stem>_Images/`. Nothing appears under the final names
-/// until commit(): a writer destroyed without commit() removes its temporary files.
+/// until commit(): a writer destroyed without commit() removes its temporary files. An existing rawlog is
+/// replaced; an existing images folder only if it holds nothing but images this writer names
+/// (imagesFolderKind()), checked when the writer is made.
 class RawlogWriter {
  public:
   /// imageExtension: "png" (default, lossless) or "bmp"/"tiff"/"ppm" (lossless); "jpg" is refused.
-  explicit RawlogWriter(std::filesystem::path rawlogPath, std::string imageExtension = "png");
+  /// With `outputs`, the images folder and the rawlog are prepared in that set (so checked against its inputs
+  /// and committed with the tool's other outputs by OutputSet::commit()); commit() then only closes the file.
+  explicit RawlogWriter(std::filesystem::path rawlogPath, std::string imageExtension = "png",
+                        OutputSet* outputs = nullptr);
   ~RawlogWriter();
   RawlogWriter(const RawlogWriter&) = delete;
   RawlogWriter& operator=(const RawlogWriter&) = delete;
@@ -72,6 +78,10 @@ class RawlogWriter {
 
   /// `<dir>/<stem>_Images` for a rawlog path.
   static std::filesystem::path imagesDirFor(const std::filesystem::path& rawlogPath);
+  /// The images folder as an output: the files `<LABEL>_<frame>.<ext>` this writer names.
+  static OutputKind imagesFolderKind();
+  /// A rawlog and its images folder: what a tool that reads the rawlog lists as its inputs.
+  static std::vector<std::filesystem::path> inputFilesOf(const std::filesystem::path& rawlogPath);
 
  private:
   struct Impl;
