@@ -338,6 +338,22 @@ TEST(SlamE2E, OutputsNeverReplaceAFolderOrAnInput) {
   EXPECT_EQ(readText(out2 / "report.json"), config);
 }
 
+// Reliability: a rawlog whose gzip data is corrupt is reported as corrupt (not as a rawlog without frames).
+TEST(SlamE2E, CorruptRawlogIsNamedCorrupt) {
+  const fs::path dir = tempRoot() / "corrupt";
+  fs::create_directories(dir);
+  std::string bytes = readText(roomRawlog());
+  ASSERT_GT(bytes.size(), 100u);
+  bytes[20] = static_cast<char>(bytes[20] ^ 0x55);  // inside the first deflate block
+  std::ofstream(dir / "room.rawlog", std::ios::binary) << bytes;
+  fs::copy(roomRawlog().parent_path() / "room_Images", dir / "room_Images", fs::copy_options::recursive);
+  const std::string error = errorOf([&] { runSlam(dir / "out", 1, false, dir / "room.rawlog"); });
+  EXPECT_NE(error.find("room.rawlog"), std::string::npos) << error;
+  EXPECT_NE(error.find("corrupt"), std::string::npos) << error;
+  EXPECT_EQ(error.find("no CAMERA frame"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(dir / "out" / "trajectory.txt"));
+}
+
 TEST(SlamE2E, FrameRangeIsRespected) {
   apps::SlamRunOptions o;
   o.config = kConfig;

@@ -89,10 +89,12 @@ class RawlogWriter {
   std::size_t frames_ = 0;
 };
 
-/// Streams frames from a rawlog that follows the contract. Images are loaded one frame at a time.
+/// Streams frames from a rawlog that follows the contract. Images are loaded one frame at a time. The gzip
+/// stream is verified to its end (pslam::GzipInputStream): corrupt or cut data is an error naming the file and
+/// the frame, never the end of the rawlog.
 class RawlogReader {
  public:
-  /// Throws pslam::Error if the file is missing or is not an MRPT rawlog.
+  /// Throws pslam::Error if the file is missing or cannot be opened.
   explicit RawlogReader(std::filesystem::path rawlogPath);
   ~RawlogReader();
   RawlogReader(const RawlogReader&) = delete;
@@ -104,10 +106,11 @@ class RawlogReader {
   const std::filesystem::path& path() const;
   const std::filesystem::path& imagesDir() const;
 
-  /// Counts the frames (reads the whole archive without loading the images).
+  /// Counts the frames (reads and verifies the whole archive without loading the images).
   static std::size_t countFrames(const std::filesystem::path& rawlogPath);
 
  private:
+  bool readFrame(Frame& frame);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
