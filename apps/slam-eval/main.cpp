@@ -78,6 +78,7 @@ int main(int argc, char** argv) {
     const EvalApp app(o);
     EvalOutputFiles outputs(app, jsonPath, plotDir, {gtPath, estPath, configPath});  // checked before the work
     const EvalResult result = app.run(gtPath, estPath);
+    for (const auto& w : result.warnings) std::cerr << "slam-eval: warning: " << w << "\n";
     std::cout << app.formatTable(result);
     outputs.write(result);
     return 0;

@@ -98,12 +98,17 @@ EvalResult EvalApp::run(const std::filesystem::path& gtPath, const std::filesyst
   const Trajectory est = readTrajectory(estPath, estFormat, options_.estTimes);
   if (gt.empty()) throw Error(gtPath.string() + ": no poses");
   if (est.empty()) throw Error(estPath.string() + ": no poses");
+  std::vector<std::string> warnings;
+  for (const auto& note : {duplicateStampNote(gt, gtPath), duplicateStampNote(est, estPath)})
+    if (!note.empty()) warnings.push_back(note);
   EvalOptions effective = options_;
   // KITTI poses without times files carry only their index: timestamps would be meaningless.
   const bool gtIndexOnly = gtFormat == TrajectoryFormat::Kitti && options_.gtTimes.empty();
   const bool estIndexOnly = estFormat == TrajectoryFormat::Kitti && options_.estTimes.empty();
   if (gtIndexOnly || estIndexOnly) effective.association.rule = AssociationRule::ByIndex;
-  return EvalApp(effective).evaluate(gt, est);
+  EvalResult result = EvalApp(effective).evaluate(gt, est);
+  result.warnings = std::move(warnings);
+  return result;
 }
 
 EvalResult EvalApp::evaluate(const Trajectory& gt, const Trajectory& est) const {
@@ -183,6 +188,7 @@ nlohmann::json EvalApp::toJson(const EvalResult& r) const {
   }
   if (r.rotationError) j["re_deg"] = r.rotationError->stats.toJson();
   if (r.depthRatio) j["dr"] = r.depthRatio->toJson();
+  if (!r.warnings.empty()) j["warnings"] = r.warnings;
   return j;
 }
 

@@ -121,3 +121,30 @@ TEST(SlamEvalCli, OutputsNeverDestroyAFolderOrAnInput) {
   EXPECT_TRUE(fs::is_directory(d / "plots" / "eval_top_view.png"));
   fs::remove_all(d);
 }
+
+// Reliability: a stamp before the previous one is an error naming the file and line; a duplicate stamp is
+// kept (as evo does: published ground truth has some) with a warning naming the file.
+TEST(SlamEvalCli, StampOrderIsCheckedAndDuplicatesAreNamed) {
+  const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_dup_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  pslam::writeTumTrajectory(d / "gt.txt", spiral(30, 1.0));
+  auto est = spiral(30, 0.5);
+  std::swap(est[9].timestamp, est[10].timestamp);
+  pslam::writeTumTrajectory(d / "est.txt", est);
+  const CliRun back = runCli((d / "gt.txt").string() + " " + (d / "est.txt").string());
+  EXPECT_EQ(back.exitCode, 1) << back.output;
+  // One header comment line, then pose k on line k + 2.
+  EXPECT_NE(back.output.find("est.txt:12: timestamp 10.300000 is before the previous one (line 11)"), std::string::npos)
+      << back.output;
+
+  est = spiral(30, 0.5);
+  est[10].timestamp = est[9].timestamp;
+  pslam::writeTumTrajectory(d / "est.txt", est);
+  const CliRun dup = runCli((d / "gt.txt").string() + " " + (d / "est.txt").string());
+  EXPECT_EQ(dup.exitCode, 0) << dup.output;
+  EXPECT_NE(dup.output.find("slam-eval: warning: " + (d / "est.txt").string() + ": 1 pose has the timestamp of the previous one"),
+            std::string::npos)
+      << dup.output;
+  fs::remove_all(d);
+}

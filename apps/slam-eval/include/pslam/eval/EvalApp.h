@@ -63,6 +63,8 @@ struct EvalResult {
   std::optional<RpeResult> rpe;
   std::optional<RotationErrorResult> rotationError;
   std::optional<DepthRatioResult> depthRatio;
+  /// Notes about the inputs, e.g. poses with the timestamp of the previous one (kept, as evo keeps them).
+  std::vector<std::string> warnings;
 };
 
 class EvalApp {
