@@ -357,6 +357,47 @@ TEST(SlamE2E, BadInputsAreNamed) {
   EXPECT_FALSE(fs::exists(out / "trajectory.txt"));
 }
 
+// Reliability (doc/reliability.md): an output folder whose map.slammap is a folder keeps it, and the run writes
+// none of its outputs; an output that is an input is refused.
+TEST(SlamE2E, OutputsNeverReplaceAFolderOrAnInput) {
+  const fs::path out = tempRoot() / "folder_map";
+  fs::create_directories(out / "map.slammap");
+  std::ofstream(out / "map.slammap" / "notes.txt") << "precious";
+  const std::string folderError = errorOf([&] { runSlam(out); });
+  EXPECT_NE(folderError.find("map.slammap: is a folder; refusing to replace it with a file"), std::string::npos)
+      << folderError;
+  EXPECT_EQ(readText(out / "map.slammap" / "notes.txt"), "precious");
+  for (const char* name : {"trajectory.txt", "keyframes.txt", "report.json"})
+    EXPECT_FALSE(fs::exists(out / name)) << name;
+  for (const auto& e : fs::directory_iterator(out))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+
+  // The config file is one of the outputs' names.
+  const fs::path out2 = tempRoot() / "config_is_output";
+  fs::create_directories(out2);
+  fs::copy_file(kConfig, out2 / "report.json");
+  const std::string config = readText(out2 / "report.json");
+  const std::string inputError = errorOf([&] { runSlam(out2, 1, false, roomRawlog(), out2 / "report.json"); });
+  EXPECT_NE(inputError.find("is the input"), std::string::npos) << inputError;
+  EXPECT_EQ(readText(out2 / "report.json"), config);
+}
+
+// Reliability: a rawlog whose gzip data is corrupt is reported as corrupt (not as a rawlog without frames).
+TEST(SlamE2E, CorruptRawlogIsNamedCorrupt) {
+  const fs::path dir = tempRoot() / "corrupt";
+  fs::create_directories(dir);
+  std::string bytes = readText(roomRawlog());
+  ASSERT_GT(bytes.size(), 100u);
+  bytes[20] = static_cast<char>(bytes[20] ^ 0x55);  // inside the first deflate block
+  std::ofstream(dir / "room.rawlog", std::ios::binary) << bytes;
+  fs::copy(roomRawlog().parent_path() / "room_Images", dir / "room_Images", fs::copy_options::recursive);
+  const std::string error = errorOf([&] { runSlam(dir / "out", 1, false, dir / "room.rawlog"); });
+  EXPECT_NE(error.find("room.rawlog"), std::string::npos) << error;
+  EXPECT_NE(error.find("corrupt"), std::string::npos) << error;
+  EXPECT_EQ(error.find("no CAMERA frame"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(dir / "out" / "trajectory.txt"));
+}
+
 TEST(SlamE2E, FrameRangeIsRespected) {
   apps::SlamRunOptions o;
   o.config = kConfig;

@@ -29,7 +29,8 @@ int main(int argc, char** argv) {
   app.add_option("--format", opt.format, "auto|tum|icl|kitti|euroc|folder")->capture_default_str();
   app.add_option("--first", opt.first, "First frame to convert (0-based)")->capture_default_str();
   app.add_option("--last", opt.last, "Last frame to convert (inclusive)");
-  app.add_option("--count", opt.count, "Convert at most this many frames (after --stride)");
+  app.add_option("--count", opt.count, "Convert at most this many frames (after --stride; 0 = all)")
+      ->capture_default_str();
   app.add_option("--stride", opt.stride, "Keep every n-th frame")->capture_default_str();
   app.add_option("--color", opt.color, "keep|grey|colour: CAMERA image colour")->capture_default_str();
   app.add_option("--image-format", opt.imageFormat, "Lossless image format: png|bmp|tiff|ppm|pgm")

@@ -76,10 +76,11 @@ int main(int argc, char** argv) {
     if (oTau->count()) o.depthRatio.tau = tau;
     if (oDrScale->count()) o.depthUseAlignmentScale = drScale;
     const EvalApp app(o);
+    EvalOutputFiles outputs(app, jsonPath, plotDir, {gtPath, estPath, configPath});  // checked before the work
     const EvalResult result = app.run(gtPath, estPath);
+    for (const auto& w : result.warnings) std::cerr << "slam-eval: warning: " << w << "\n";
     std::cout << app.formatTable(result);
-    if (!jsonPath.empty()) app.writeJson(result, jsonPath);
-    if (!plotDir.empty()) app.writePlots(result, plotDir);
+    outputs.write(result);
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "slam-eval: error: " << e.what() << "\n";

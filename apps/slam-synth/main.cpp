@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
     }
     o.textured = texture == "on";
     o.progress = !quiet;
-    pslam::synth::SynthApp app(o);
+    pslam::synth::SynthApp app(o, {config});
     const auto summary = app.run();
     std::cout << summary.toText();
     return 0;

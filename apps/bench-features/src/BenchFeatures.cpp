@@ -101,6 +101,10 @@ nlohmann::json BenchFeaturesResult::toJson(const BenchFeaturesOptions& o) const 
 
 BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   const auto files = listImages(options_.input, options_.maxImages);
+  if (!options_.jsonOutput.empty()) {  // checked before the work: the JSON must not replace an input or a folder
+    requireNotAnInput(options_.jsonOutput, OutputKind::file(), files);
+    requireReplaceable(options_.jsonOutput, OutputKind::file());
+  }
   OrbExtractor extractor(options_.orb);
   const OrbParams& p = options_.orb;
   // cv::ORB with the same budget and pyramid; its own (non-quadtree) selection and Harris ranking.
@@ -216,7 +220,6 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   }
 
   if (!options_.jsonOutput.empty()) {
-    ensureParentDirectory(options_.jsonOutput);
     const nlohmann::json j = result.toJson(options_);
     writeFileAtomically(options_.jsonOutput, [&](std::ostream& os) { os << j.dump(2) << "\n"; });
   }

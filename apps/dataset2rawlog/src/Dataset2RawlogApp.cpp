@@ -264,8 +264,12 @@ Dataset2RawlogSummary Dataset2RawlogApp::run() {
   summary.assumptions = index.assumptions;
   const fs::path gtPath = opt_.outDir / (name + "_groundtruth.txt");
 
-  // Both outputs are produced under temporary names and moved into place only after every frame converted.
-  RawlogWriter writer(summary.rawlogPath, opt_.imageFormat);
+  // The outputs are prepared first (none may be an input or replace a folder), produced under temporary names
+  // and moved into place together only after every frame converted.
+  const Trajectory gt = groundTruthTrajectory(index);
+  OutputSet outputs({opt_.input, opt_.cameraIni, opt_.posesFile, opt_.timesFile});
+  RawlogWriter writer(summary.rawlogPath, opt_.imageFormat, &outputs);
+  AtomicOutput* gtOut = gt.empty() ? nullptr : &outputs.add(gtPath);
   Progress progress("dataset2rawlog " + name, index.frames.size(), opt_.progress);
   for (std::size_t i = 0; i < index.frames.size(); ++i) {
     Frame frame;
@@ -282,22 +286,23 @@ Dataset2RawlogSummary Dataset2RawlogApp::run() {
   }
   summary.frames = writer.framesWritten();
 
-  const Trajectory gt = groundTruthTrajectory(index);
   summary.groundTruthPoses = gt.size();
-  std::optional<AtomicOutput> gtOut;
-  if (!gt.empty()) {
-    gtOut.emplace(gtPath);
+  if (gtOut)
     writeTumTrajectory(gtOut->tempPath(), gt,
                        "ground truth of " + name + ".rawlog (" + index.format + " " + index.root.string() +
                            "), stamps = CAMERA stamps");
-  }
   writer.commit();
+  outputs.commit();
   if (gtOut) {
-    gtOut->commit();
     summary.groundTruthPath = gtPath;
   } else {
+    // A ground-truth file of an earlier run under this name would not belong to this rawlog. Only that kind of
+    // file is removed: a regular file that is none of the inputs.
     std::error_code ec;
-    if (fs::remove(gtPath, ec))  // a stale file from an earlier run would not belong to this rawlog
+    bool isInput = false;
+    for (const fs::path& in : {opt_.input, opt_.cameraIni, opt_.posesFile, opt_.timesFile})
+      isInput = isInput || (!in.empty() && fs::equivalent(in, gtPath, ec));
+    if (!isInput && fs::is_regular_file(fs::symlink_status(gtPath, ec)) && fs::remove(gtPath, ec))
       summary.assumptions.push_back("removed stale " + gtPath.string());
     summary.assumptions.push_back("no ground truth written");
   }

@@ -67,3 +67,42 @@ TEST(Dataset2RawlogCli, ConvertsAndReportsErrorsOnOneLine) {
   EXPECT_EQ(lossy.code, 1);
   EXPECT_NE(lossy.err.find("image_format"), std::string::npos) << lossy.err;
 }
+
+namespace {
+std::string readAll(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+// Reliability (doc/reliability.md): --help says what --count 0 means; an images folder that holds files this
+// tool did not write is never replaced; a re-run replaces the tool's own earlier output.
+TEST(Dataset2RawlogCli, CountZeroIsDocumentedAndForeignImagesFoldersAreKept) {
+  const fs::path base = freshDir("cli_reliability");
+  const fs::path root = base / "rgbd_dataset_freiburg3_rel";
+  TumSpec spec;
+  spec.width = 640;  // the fr3 calibration's image size
+  spec.height = 480;
+  spec.frames = 3;
+  writeTumDataset(root, spec);
+  fs::create_directories(base / "logs");
+  ASSERT_EQ(run("--help", base / "logs").code, 0);
+  EXPECT_NE(readAll(base / "logs" / "stdout.txt").find("0 = all"), std::string::npos);
+  const Result all = run(root.string() + " -o " + (base / "out").string() + " --count 0 -q", base / "logs");
+  ASSERT_EQ(all.code, 0) << all.err;
+  EXPECT_EQ(pslam::datasets::RawlogReader::countFrames(base / "out" / "rgbd_dataset_freiburg3_rel.rawlog"), 3u);
+
+  const Result again = run(root.string() + " -o " + (base / "out").string() + " --count 2 -q", base / "logs");
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_EQ(pslam::datasets::RawlogReader::countFrames(base / "out" / "rgbd_dataset_freiburg3_rel.rawlog"), 2u);
+
+  std::ofstream(base / "out" / "rgbd_dataset_freiburg3_rel_Images" / "notes.txt") << "mine";
+  const Result foreign = run(root.string() + " -o " + (base / "out").string() + " -q", base / "logs");
+  EXPECT_EQ(foreign.code, 1) << foreign.err;
+  EXPECT_NE(foreign.err.find("holds 'notes.txt'"), std::string::npos) << foreign.err;
+  EXPECT_EQ(std::count(foreign.err.begin(), foreign.err.end(), '\n'), 1) << foreign.err;
+  EXPECT_EQ(readAll(base / "out" / "rgbd_dataset_freiburg3_rel_Images" / "notes.txt"), "mine");
+  EXPECT_EQ(pslam::datasets::RawlogReader::countFrames(base / "out" / "rgbd_dataset_freiburg3_rel.rawlog"), 2u);
+}

@@ -65,6 +65,13 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   fs::path gtPath = o.groundTruth;
   if (gtPath.empty()) gtPath = o.rawlog.parent_path() / (o.rawlog.stem().string() + "_groundtruth.txt");
   require(fs::is_regular_file(gtPath), gtPath.string(), "ground-truth file not found");
+  // The outputs, prepared before the run: none may be an input or replace a folder; all are written or none.
+  std::vector<fs::path> inputs = datasets::RawlogWriter::inputFilesOf(o.rawlog);
+  for (const fs::path& p : {gtPath, o.config, o.referenceConfig}) inputs.push_back(p);
+  OutputSet outputs(inputs);
+  AtomicOutput* jsonOut = o.outputJson.empty() ? nullptr : &outputs.add(o.outputJson);
+  AtomicOutput* plotOut = o.outputPlot.empty() ? nullptr : &outputs.add(o.outputPlot);
+  AtomicOutput* textOut = o.outputText.empty() ? nullptr : &outputs.add(o.outputText);
   Trajectory gt = readTumTrajectory(gtPath);
   std::sort(gt.begin(), gt.end(), [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
 
@@ -199,9 +206,8 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
       << "  <30 " << a.under30 << "  (" << a.count << " px)\n";
   }
   r.text = t.str();
-  if (!o.outputJson.empty())
-    writeFileAtomically(o.outputJson, [&](std::ostream& os) { os << r.report.dump(2) << "\n"; });
-  if (!o.outputPlot.empty()) {
+  if (jsonOut) writeOutputFile(*jsonOut, [&](std::ostream& os) { os << r.report.dump(2) << "\n"; });
+  if (plotOut) {
     eval::Plot plot("Manhattan-frame rotation error vs ground truth (" + o.normals + " normals)", "frame",
                     "degrees");
     plot.addLine(errorFrames, errors, "rotation error (relative to frame " + std::to_string(referenceIndex) + ")", eval::colors::red());
@@ -212,9 +218,10 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
     for (double e : errors) top = std::max(top, e);
     for (double g : scaled) top = std::max(top, g);
     plot.setYRange(0.0, 1.1 * top);
-    plot.save(o.outputPlot);
+    plot.save(plotOut->tempPath());
   }
-  if (!o.outputText.empty()) writeFileAtomically(o.outputText, [&](std::ostream& os) { os << r.text; });
+  if (textOut) writeOutputFile(*textOut, [&](std::ostream& os) { os << r.text; });
+  outputs.commit();
   return r;
 }
 

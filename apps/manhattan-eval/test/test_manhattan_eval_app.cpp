@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <unistd.h>
 
 #include <Eigen/Geometry>
@@ -131,4 +132,78 @@ TEST(ManhattanEvalApp, FollowsACameraTurningInsideABoxRoom) {
   o.groundTruth.clear();
   o.rawlog = dir.path / "missing.rawlog";
   EXPECT_THROW(manhattan::runManhattanEval(o), Error);
+}
+
+// Reliability (doc/reliability.md): --json / --text / --plot never replace a folder nor an input, and a run that
+// cannot write one of its outputs writes none.
+TEST(ManhattanEvalApp, OutputsNeverDestroyAFolderOrAnInput) {
+  TempDir dir;
+  const int cols = 160, rows = 120;
+  const double f = 130.0;
+  Trajectory gt;
+  {
+    datasets::RawlogWriter writer(dir.path / "room.rawlog");
+    for (int i = 0; i < 2; ++i) {
+      const Eigen::Matrix3d R_w_c = Eigen::AngleAxisd(0.1 * i + 0.3, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      const Eigen::Vector3d t_w_c(0.0, 0.1, -0.5);
+      datasets::Frame fr;
+      fr.timestamp = 100.0 + 0.1 * i;
+      fr.image = cv::Mat(rows, cols, CV_8UC1, cv::Scalar(128));
+      fr.camera.ncols = cols;
+      fr.camera.nrows = rows;
+      fr.camera.fx(f);
+      fr.camera.fy(f);
+      fr.camera.cx((cols - 1) / 2.0);
+      fr.camera.cy((rows - 1) / 2.0);
+      fr.depth = renderRoomDepth(R_w_c, t_w_c, Eigen::Vector3d(2.5, 1.2, 3.0), f, cols, rows);
+      fr.depthUnits = 1.0 / 5000.0;
+      writer.write(fr);
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.linear() = R_w_c;
+      T.translation() = t_w_c;
+      gt.emplace_back(fr.timestamp, T);
+    }
+    writer.commit();
+  }
+  writeTumTrajectory(dir.path / "room_groundtruth.txt", gt);
+  auto readAll = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  const std::string rawlog = readAll(dir.path / "room.rawlog"), truth = readAll(dir.path / "room_groundtruth.txt");
+  auto errorOf = [](const manhattan::ManhattanEvalOptions& o) {
+    try {
+      manhattan::runManhattanEval(o);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  manhattan::ManhattanEvalOptions base;
+  base.rawlog = dir.path / "room.rawlog";
+  base.normals = "depth";
+  base.progress = false;
+
+  fs::create_directories(dir.path / "X");
+  std::ofstream(dir.path / "X" / "keep.txt") << "keep";
+  auto o = base;
+  o.outputJson = dir.path / "X";
+  EXPECT_NE(errorOf(o).find("X: is a folder; refusing to replace it with a file"), std::string::npos) << errorOf(o);
+  EXPECT_TRUE(fs::exists(dir.path / "X" / "keep.txt"));
+
+  o = base;
+  o.outputJson = dir.path / "room.rawlog";
+  EXPECT_NE(errorOf(o).find("is the input"), std::string::npos) << errorOf(o);
+  o = base;
+  o.outputText = dir.path / "room_groundtruth.txt";
+  EXPECT_NE(errorOf(o).find("is the input"), std::string::npos) << errorOf(o);
+  EXPECT_EQ(readAll(dir.path / "room.rawlog"), rawlog);
+  EXPECT_EQ(readAll(dir.path / "room_groundtruth.txt"), truth);
+
+  // The plot cannot be written: neither is the JSON.
+  o = base;
+  o.outputJson = dir.path / "r.json";
+  o.outputPlot = dir.path / "X";
+  EXPECT_NE(errorOf(o).find("X: is a folder"), std::string::npos) << errorOf(o);
+  EXPECT_FALSE(fs::exists(dir.path / "r.json"));
 }

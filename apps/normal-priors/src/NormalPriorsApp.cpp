@@ -33,10 +33,17 @@ NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
           "output must differ from the input rawlog");
   auto source = makeNormalSource(o.source, o.config);
 
+  // The outputs are prepared before the work (none may be an input or replace a folder) and committed together.
+  const fs::path gtIn = groundTruthFor(o.input);
+  std::vector<fs::path> inputs = datasets::RawlogWriter::inputFilesOf(o.input);
+  inputs.push_back(gtIn);
+  inputs.push_back(o.config);
+  OutputSet outputs(inputs);
+  datasets::RawlogWriter writer(o.output, "png", &outputs);
+  AtomicOutput* gtOut = fs::is_regular_file(gtIn) ? &outputs.add(groundTruthFor(o.output)) : nullptr;
+
   const std::size_t total = datasets::RawlogReader::countFrames(o.input);
   datasets::RawlogReader reader(o.input);
-  ensureParentDirectory(o.output);
-  datasets::RawlogWriter writer(o.output);
   Progress progress("normal-priors", total, o.progress);
   NormalPriorsResult r;
   double totalMs = 0.0, planarShareSum = 0.0;
@@ -54,13 +61,14 @@ NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
     progress.update(r.frames, std::to_string(nm.planeCount) + " planes");
   }
   writer.commit();
-  const fs::path gtIn = groundTruthFor(o.input);
-  if (fs::is_regular_file(gtIn)) {
+  if (gtOut) {
     std::ifstream in(gtIn, std::ios::binary);
     std::stringstream content;
     content << in.rdbuf();
-    writeFileAtomically(groundTruthFor(o.output), [&](std::ostream& os) { os << content.str(); });
+    if (!in) throw Error(gtIn.string() + ": cannot read");
+    writeOutputFile(*gtOut, [&](std::ostream& os) { os << content.str(); });
   }
+  outputs.commit();
   if (r.frames > 0) {
     r.meanNormalsMs = totalMs / r.frames;
     r.meanPlanarShare = planarShareSum / r.frames;

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <unistd.h>
 
@@ -86,4 +87,17 @@ TEST(NormalPriorsApp, AddsNormalsChannelFromDepthAndCopiesGroundTruth) {
   o.input = dir / "room.rawlog";
   o.source = "magic";
   EXPECT_THROW(runNormalPriors(o), pslam::Error);
+  // Reliability (doc/reliability.md): room.copy has the stem of room.rawlog, so its images folder and its
+  // ground truth would be the input's: refused before anything is read or written.
+  o.source = "depth";
+  o.output = dir / "room.copy";
+  const auto imagesBefore = std::distance(fs::directory_iterator(dir / "room_Images"), fs::directory_iterator());
+  try {
+    runNormalPriors(o);
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& err) {
+    EXPECT_NE(std::string(err.what()).find("is the input"), std::string::npos) << err.what();
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir / "room_Images"), fs::directory_iterator()), imagesBefore);
+  EXPECT_FALSE(fs::exists(dir / "room.copy"));
 }

@@ -38,6 +38,16 @@ SemanticPriorsApp::SemanticPriorsApp(SemanticPriorsOptions options) : options_(s
 
 SemanticPriorsReport SemanticPriorsApp::run() {
   const auto& o = options_;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(o.input, ec)) throw Error(o.input.string() + ": rawlog file not found");
+  // The outputs are prepared before the work (none may be an input or replace a folder) and committed together.
+  std::vector<std::filesystem::path> inputs = datasets::RawlogWriter::inputFilesOf(o.input);
+  for (const auto& p : {o.labelsDir, o.classMapFile, o.networkConfig}) inputs.push_back(p);
+  OutputSet outputs(inputs);
+  datasets::RawlogWriter writer(o.output, "png", &outputs);
+  AtomicOutput* overlays =
+      o.overlayDir.empty() ? nullptr : &outputs.add(o.overlayDir, OutputKind::folder("overlay_[0-9]{6,}\\.png"));
+
   std::unique_ptr<SemanticSource> source;
   if (!o.labelsDir.empty()) {
     SemanticClassMap map = o.classMapFile.empty() ? SemanticClassMap::cityscapes()
@@ -53,14 +63,6 @@ SemanticPriorsReport SemanticPriorsApp::run() {
   if (o.maxFrames > 0) total = std::min(total, o.maxFrames);
 
   datasets::RawlogReader reader(o.input);
-  ensureParentDirectory(o.output);
-  datasets::RawlogWriter writer(o.output);
-  std::optional<AtomicOutput> overlays;
-  if (!o.overlayDir.empty()) {
-    ensureParentDirectory(o.overlayDir);
-    overlays.emplace(o.overlayDir);
-    std::filesystem::create_directories(overlays->tempPath());
-  }
 
   Progress progress("semantic-priors", total, o.progress);
   std::array<double, kNumSemanticGroups> sum{};
@@ -95,7 +97,7 @@ SemanticPriorsReport SemanticPriorsApp::run() {
   }
   if (report.frames == 0) throw Error(o.input.string() + ": rawlog has no frames");
   writer.commit();
-  if (overlays) overlays->commit();
+  outputs.commit();
   for (int k = 0; k < kNumSemanticGroups; ++k) report.meanProbability[k] = sum[k] / double(report.frames);
   progress.finish(std::to_string(report.frames) + " frames -> " + o.output.string());
   return report;

@@ -116,3 +116,39 @@ TEST(SemanticPriorsApp, OptionChecks) {
   o.output = o.input;
   EXPECT_THROW(priors::SemanticPriorsApp{o}, Error);  // in place
 }
+
+// Reliability (doc/reliability.md): a missing input rawlog is named (not its default label folder); an output
+// rawlog whose images folder is the input's is refused and the input's images are kept.
+TEST(SemanticPriorsApp, MissingInputIsNamedAndInputImagesAreNeverReplaced) {
+  Fixture fx("inputs");
+  priors::SemanticPriorsOptions o;
+  o.input = fx.dir / "missing.rawlog";
+  o.output = fx.dir / "out.rawlog";
+  o.labelsDir = "auto";
+  o.progress = false;
+  try {
+    priors::SemanticPriorsApp(o).run();
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("missing.rawlog: rawlog file not found"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find("_Labels"), std::string::npos) << msg;
+  }
+
+  // seq.copy has the stem of seq.rawlog: its images folder would be seq_Images, the input's.
+  const auto images = fx.dir / "seq_Images";
+  std::size_t before = 0;
+  for (const auto& e : fs::directory_iterator(images)) before += e.is_regular_file() ? 1 : 0;
+  o.input = fx.rawlog;
+  o.output = fx.dir / "seq.copy";
+  try {
+    priors::SemanticPriorsApp(o).run();
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is the input"), std::string::npos) << e.what();
+  }
+  std::size_t after = 0;
+  for (const auto& e : fs::directory_iterator(images)) after += e.is_regular_file() ? 1 : 0;
+  EXPECT_EQ(after, before);
+  EXPECT_FALSE(fs::exists(o.output));
+}

@@ -98,12 +98,17 @@ EvalResult EvalApp::run(const std::filesystem::path& gtPath, const std::filesyst
   const Trajectory est = readTrajectory(estPath, estFormat, options_.estTimes);
   if (gt.empty()) throw Error(gtPath.string() + ": no poses");
   if (est.empty()) throw Error(estPath.string() + ": no poses");
+  std::vector<std::string> warnings;
+  for (const auto& note : {duplicateStampNote(gt, gtPath), duplicateStampNote(est, estPath)})
+    if (!note.empty()) warnings.push_back(note);
   EvalOptions effective = options_;
   // KITTI poses without times files carry only their index: timestamps would be meaningless.
   const bool gtIndexOnly = gtFormat == TrajectoryFormat::Kitti && options_.gtTimes.empty();
   const bool estIndexOnly = estFormat == TrajectoryFormat::Kitti && options_.estTimes.empty();
   if (gtIndexOnly || estIndexOnly) effective.association.rule = AssociationRule::ByIndex;
-  return EvalApp(effective).evaluate(gt, est);
+  EvalResult result = EvalApp(effective).evaluate(gt, est);
+  result.warnings = std::move(warnings);
+  return result;
 }
 
 EvalResult EvalApp::evaluate(const Trajectory& gt, const Trajectory& est) const {
@@ -183,6 +188,7 @@ nlohmann::json EvalApp::toJson(const EvalResult& r) const {
   }
   if (r.rotationError) j["re_deg"] = r.rotationError->stats.toJson();
   if (r.depthRatio) j["dr"] = r.depthRatio->toJson();
+  if (!r.warnings.empty()) j["warnings"] = r.warnings;
   return j;
 }
 
@@ -191,9 +197,35 @@ void EvalApp::writeJson(const EvalResult& result, const std::filesystem::path& p
   writeFileAtomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
 }
 
+std::vector<std::string> EvalApp::plotFileNames() const {
+  std::vector<std::string> names{"eval_top_view.png", "eval_ate_over_time.png"};
+  if (options_.rpe) {
+    names.push_back("eval_rpe_over_time.png");
+    names.push_back("eval_rpe_rot_over_time.png");
+  }
+  return names;
+}
+
+std::vector<std::filesystem::path> EvalApp::inputFiles() const {
+  std::vector<std::filesystem::path> files{options_.gtTimes, options_.estTimes, options_.depthSamples,
+                                           options_.depthRawlog};
+  if (!options_.depthRawlog.empty())
+    files.push_back(options_.depthRawlog.parent_path() / (options_.depthRawlog.stem().string() + "_Images"));
+  return files;
+}
+
 std::vector<std::filesystem::path> EvalApp::writePlots(const EvalResult& r, const std::filesystem::path& dir,
                                                        const std::string& titlePrefix) const {
   std::vector<std::filesystem::path> written;
+  for (const auto& [name, plot] : makePlots(r, titlePrefix)) {
+    written.push_back(dir / name);
+    plot.save(written.back());
+  }
+  return written;
+}
+
+std::vector<std::pair<std::string, Plot>> EvalApp::makePlots(const EvalResult& r, const std::string& titlePrefix) const {
+  std::vector<std::pair<std::string, Plot>> plots;
   const std::size_t n = r.gtAssociated.size();
   // Top view: the two world axes along which the ground truth spreads most (x-y for TUM/EuRoC, x-z KITTI).
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -228,15 +260,13 @@ std::vector<std::filesystem::path> EvalApp::writePlots(const EvalResult& r, cons
   top.addLine(gx, gy, "ground truth", colors::grey(), 2);
   top.addLine(ex, ey, "estimate", colors::black(), 1);
   top.addColoredScatter(ex, ey, r.ate.errors, "ATE error", "ATE [m]", 3);
-  written.push_back(dir / "eval_top_view.png");
-  top.save(written.back());
+  plots.emplace_back("eval_top_view.png", std::move(top));
 
   Plot ate(titlePrefix + "ATE over time" + align, timeLabel, "ATE [m]");
   ate.addLine(t, r.ate.errors, "ATE", colors::blue(), 2);
   ate.addLine({t.front(), t.back()}, {r.ate.stats.rmse, r.ate.stats.rmse}, "rmse", colors::red(), 1);
   ate.addLine({t.front(), t.back()}, {r.ate.stats.median, r.ate.stats.median}, "median", colors::green(), 1);
-  written.push_back(dir / "eval_ate_over_time.png");
-  ate.save(written.back());
+  plots.emplace_back("eval_ate_over_time.png", std::move(ate));
 
   if (r.rpe) {
     std::vector<double> tp;  // stamp of the pair's second pose, as evo's plots
@@ -246,15 +276,42 @@ std::vector<std::filesystem::path> EvalApp::writePlots(const EvalResult& r, cons
     Plot rt(titlePrefix + "RPE translation over time, delta " + d.str() + align, timeLabel, "RPE t [m]");
     rt.addLine(tp, r.rpe->translationErrors, "RPE t", colors::orange(), 2);
     rt.addLine({tp.front(), tp.back()}, {r.rpe->translation.rmse, r.rpe->translation.rmse}, "rmse", colors::red(), 1);
-    written.push_back(dir / "eval_rpe_over_time.png");
-    rt.save(written.back());
+    plots.emplace_back("eval_rpe_over_time.png", std::move(rt));
     Plot rr(titlePrefix + "RPE rotation over time, delta " + d.str(), timeLabel, "RPE r [deg]");
     rr.addLine(tp, r.rpe->rotationErrorsDeg, "RPE r", colors::purple(), 2);
     rr.addLine({tp.front(), tp.back()}, {r.rpe->rotation.rmse, r.rpe->rotation.rmse}, "rmse", colors::red(), 1);
-    written.push_back(dir / "eval_rpe_rot_over_time.png");
-    rr.save(written.back());
+    plots.emplace_back("eval_rpe_rot_over_time.png", std::move(rr));
   }
-  return written;
+  return plots;
 }
+
+// ---------------------------------------------------------------------------------------- output files
+
+EvalOutputFiles::EvalOutputFiles(const EvalApp& app, const std::filesystem::path& jsonPath,
+                                 const std::filesystem::path& plotDir, std::vector<std::filesystem::path> inputs)
+    : app_(app) {
+  for (const auto& f : app.inputFiles()) inputs.push_back(f);
+  outputs_ = std::make_unique<OutputSet>(std::move(inputs));
+  if (!jsonPath.empty()) json_ = &outputs_->add(jsonPath);
+  if (!plotDir.empty())
+    for (const auto& name : app.plotFileNames()) plots_.push_back(&outputs_->add(plotDir / name));
+}
+
+EvalOutputFiles::~EvalOutputFiles() = default;
+
+void EvalOutputFiles::write(const EvalResult& result) {
+  if (json_) {
+    const nlohmann::json j = app_.toJson(result);
+    writeOutputFile(*json_, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+  }
+  if (!plots_.empty()) {
+    const auto plots = app_.makePlots(result, "");
+    if (plots.size() != plots_.size()) throw Error("slam-eval: internal error: plot count differs from the prepared files");
+    for (std::size_t k = 0; k < plots.size(); ++k) plots[k].second.save(plots_[k]->tempPath());
+  }
+  outputs_->commit();
+}
+
+
 
 }  // namespace pslam::eval

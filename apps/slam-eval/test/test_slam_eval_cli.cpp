@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <unistd.h>
@@ -75,4 +76,75 @@ TEST(SlamEvalCli, BadInputIsOneErrorLineAndExitCodeOne) {
   const CliRun badAlign = runCli("a b --align affine");
   EXPECT_EQ(badAlign.exitCode, 1);
   EXPECT_NE(badAlign.output.find("alignment 'affine'"), std::string::npos) << badAlign.output;
+}
+
+namespace {
+std::string readAll(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+}  // namespace
+
+// Reliability (doc/reliability.md): --json never deletes a folder and never overwrites an input; a run that
+// cannot write one of its outputs writes none.
+TEST(SlamEvalCli, OutputsNeverDestroyAFolderOrAnInput) {
+  const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_out_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d / "X");
+  std::ofstream(d / "X" / "keep.txt") << "keep";
+  pslam::writeTumTrajectory(d / "gt.txt", spiral(60, 1.0));
+  pslam::writeTumTrajectory(d / "est.txt", spiral(60, 0.5));
+  const std::string files = (d / "gt.txt").string() + " " + (d / "est.txt").string();
+
+  const CliRun folder = runCli(files + " --json " + (d / "X").string());
+  EXPECT_EQ(folder.exitCode, 1) << folder.output;
+  EXPECT_NE(folder.output.find("X: is a folder; refusing to replace it with a file"), std::string::npos)
+      << folder.output;
+  EXPECT_EQ(readAll(d / "X" / "keep.txt"), "keep");
+
+  const std::string est = readAll(d / "est.txt"), gt = readAll(d / "gt.txt");
+  for (const char* input : {"est.txt", "gt.txt"}) {
+    const CliRun same = runCli(files + " --json " + (d / input).string());
+    EXPECT_EQ(same.exitCode, 1) << same.output;
+    EXPECT_NE(same.output.find("is the input"), std::string::npos) << same.output;
+    EXPECT_EQ(std::count(same.output.begin(), same.output.end(), '\n'), 1) << same.output;
+  }
+  EXPECT_EQ(readAll(d / "est.txt"), est);
+  EXPECT_EQ(readAll(d / "gt.txt"), gt);
+
+  // A plot that cannot be written (its name is a folder): the JSON is not written either.
+  fs::create_directories(d / "plots" / "eval_top_view.png");
+  const CliRun plots = runCli(files + " --json " + (d / "r.json").string() + " --plot-dir " + (d / "plots").string());
+  EXPECT_EQ(plots.exitCode, 1) << plots.output;
+  EXPECT_NE(plots.output.find("eval_top_view.png: is a folder"), std::string::npos) << plots.output;
+  EXPECT_FALSE(fs::exists(d / "r.json"));
+  EXPECT_TRUE(fs::is_directory(d / "plots" / "eval_top_view.png"));
+  fs::remove_all(d);
+}
+
+// Reliability: a stamp before the previous one is an error naming the file and line; a duplicate stamp is
+// kept (as evo does: published ground truth has some) with a warning naming the file.
+TEST(SlamEvalCli, StampOrderIsCheckedAndDuplicatesAreNamed) {
+  const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_dup_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  pslam::writeTumTrajectory(d / "gt.txt", spiral(30, 1.0));
+  auto est = spiral(30, 0.5);
+  std::swap(est[9].timestamp, est[10].timestamp);
+  pslam::writeTumTrajectory(d / "est.txt", est);
+  const CliRun back = runCli((d / "gt.txt").string() + " " + (d / "est.txt").string());
+  EXPECT_EQ(back.exitCode, 1) << back.output;
+  // One header comment line, then pose k on line k + 2.
+  EXPECT_NE(back.output.find("est.txt:12: timestamp 10.300000 is before the previous one (line 11)"), std::string::npos)
+      << back.output;
+
+  est = spiral(30, 0.5);
+  est[10].timestamp = est[9].timestamp;
+  pslam::writeTumTrajectory(d / "est.txt", est);
+  const CliRun dup = runCli((d / "gt.txt").string() + " " + (d / "est.txt").string());
+  EXPECT_EQ(dup.exitCode, 0) << dup.output;
+  EXPECT_NE(dup.output.find("slam-eval: warning: " + (d / "est.txt").string() + ": 1 pose has the timestamp of the previous one"),
+            std::string::npos)
+      << dup.output;
+  fs::remove_all(d);
 }

@@ -20,8 +20,8 @@ namespace {
 /// pslam/eval/DepthRatio.h): one line per keyframe observation of a good point, depth along the keyframe's
 /// optical axis in the map's units. The pixel is the undistorted keypoint (equal to the image pixel for the
 /// rectified and synthetic cameras DR is evaluated on).
-void writeMapPointDepths(const map::Map& map, const std::filesystem::path& path) {
-  writeFileAtomically(path, [&](std::ostream& os) {
+void writeMapPointDepths(const map::Map& map, const AtomicOutput& output) {
+  writeOutputFile(output, [&](std::ostream& os) {
     os << "# slam-run: map-point depths per keyframe observation (slam-eval --depths)\n# timestamp u v depth\n";
     os << std::setprecision(17);
     for (const auto& [kfId, kf] : map.keyFrames())
@@ -75,10 +75,19 @@ SlamRunSummary SlamRunApp::run() {
   const system::SlamParams params = system::loadSlamParams(options_.config.string(), options_.overrides);
   require(std::filesystem::is_regular_file(options_.rawlog), options_.rawlog.string(), "rawlog not found");
 
+  // All outputs are prepared before the run (none may be an input or replace a folder) and committed together.
+  std::vector<std::filesystem::path> inputs = datasets::RawlogWriter::inputFilesOf(options_.rawlog);
+  inputs.push_back(options_.config);
+  OutputSet outputs(inputs);
+  AtomicOutput& trajectoryOut = outputs.add(options_.outDir / "trajectory.txt");
+  AtomicOutput& keyFramesOut = outputs.add(options_.outDir / "keyframes.txt");
+  AtomicOutput& mapOut = outputs.add(options_.outDir / "map.slammap");
+  AtomicOutput& depthsOut = outputs.add(options_.outDir / "depths.txt");
+  AtomicOutput& reportOut = outputs.add(options_.outDir / "report.json");
+
   const std::size_t total = datasets::RawlogReader::countFrames(options_.rawlog);
   require(total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
   datasets::RawlogReader reader(options_.rawlog);
-  std::filesystem::create_directories(options_.outDir);
 
   system::SystemOptions so;
   so.seed = options_.seed;
@@ -120,10 +129,10 @@ SlamRunSummary SlamRunApp::run() {
   sum.mapPoints = counts["map_points"];
   sum.resets = counts["resets"];
 
-  writeTumTrajectory(options_.outDir / "trajectory.txt", slam.trajectory(), "slam-run: every tracked frame, T_world_cam");
-  writeTumTrajectory(options_.outDir / "keyframes.txt", slam.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
-  slam.saveMap(options_.outDir / "map.slammap");
-  writeMapPointDepths(slam.mapSnapshot(), options_.outDir / "depths.txt");
+  writeTumTrajectory(trajectoryOut.tempPath(), slam.trajectory(), "slam-run: every tracked frame, T_world_cam");
+  writeTumTrajectory(keyFramesOut.tempPath(), slam.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
+  slam.saveMap(mapOut.tempPath());
+  writeMapPointDepths(slam.mapSnapshot(), depthsOut);
   sum.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   sum.cpuSeconds = system::processCpuSeconds() - cpu0;
 
@@ -136,7 +145,8 @@ SlamRunSummary SlamRunApp::run() {
   report["last"] = lastIndex;
   report["summary"] = sum.toJson();
   if (!sum.initialized()) report["warning"] = "initialization never succeeded: the trajectory is empty";
-  writeFileAtomically(options_.outDir / "report.json", [&](std::ostream& os) { os << report.dump(1) << "\n"; });
+  writeOutputFile(reportOut, [&](std::ostream& os) { os << report.dump(1) << "\n"; });
+  outputs.commit();
   progress.finish(sum.toText());
   return sum;
 }

@@ -238,7 +238,10 @@ std::string SynthSummary::toText() const {
 }
 
 // ------------------------------------------------------------------------------------------------ app
-SynthApp::SynthApp(SynthOptions options) : options_(std::move(options)) { options_.check(); }
+SynthApp::SynthApp(SynthOptions options, std::vector<std::filesystem::path> inputs)
+    : options_(std::move(options)), inputs_(std::move(inputs)) {
+  options_.check();
+}
 
 SynthSummary SynthApp::run() {
   const auto tStart = std::chrono::steady_clock::now();
@@ -262,19 +265,19 @@ SynthSummary SynthApp::run() {
   const Renderer renderer(cam, ro);
   const std::string name = o.effectiveName();
 
-  std::error_code ec;
-  fs::create_directories(o.outDir, ec);
-  if (ec) throw Error(o.outDir.string() + ": cannot create output folder (" + ec.message() + ")");
   SynthSummary sum;
   sum.rawlog = o.outDir / (name + ".rawlog");
   sum.groundTruth = o.outDir / (name + "_groundtruth.txt");
   sum.labelsDir = o.outDir / (name + "_Labels");
   sum.info = o.outDir / (name + "_synth.json");
 
-  datasets::RawlogWriter writer(sum.rawlog);
-  AtomicOutput labelsOut(sum.labelsDir);
-  fs::create_directories(labelsOut.tempPath(), ec);
-  if (ec) throw Error(sum.labelsDir.string() + ": cannot create labels folder (" + ec.message() + ")");
+  // Every output is prepared before rendering (an impossible path fails now) and all are committed at the end.
+  OutputSet outputs(inputs_);
+  datasets::RawlogWriter writer(sum.rawlog, "png", &outputs);
+  AtomicOutput& labelsOut = outputs.add(sum.labelsDir, OutputKind::folder("LABEL_[0-9]{6,}\\.png"));
+  AtomicOutput& groundTruthOut = outputs.add(sum.groundTruth);
+  AtomicOutput* previewOut = o.preview.empty() ? nullptr : &outputs.add(o.preview);
+  AtomicOutput& infoOut = outputs.add(sum.info);
 
   Trajectory gt;
   gt.reserve(static_cast<std::size_t>(frames));
@@ -368,8 +371,7 @@ SynthSummary SynthApp::run() {
     progress.update(static_cast<std::size_t>(i + 1));
   }
   writer.commit();
-  labelsOut.commit();
-  writeTumTrajectory(sum.groundTruth, gt,
+  writeTumTrajectory(groundTruthOut.tempPath(), gt,
                      "ground truth of slam-synth scenario '" + o.scenario + "' seed " + std::to_string(o.seed) +
                          " (camera-to-world, T_world_cam)");
   sum.frames = static_cast<std::size_t>(frames);
@@ -378,12 +380,11 @@ SynthSummary SynthApp::run() {
   sum.meanValidDepthFraction /= frames;
   sum.meanFastCorners /= frames;
   sum.renderSeconds = renderSeconds;
-  if (!o.preview.empty()) {
+  if (previewOut) {
     std::vector<uchar> png;
     if (!cv::imencode(".png", preview, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
       throw Error(o.preview.string() + ": cannot encode preview");
-    ensureParentDirectory(o.preview);
-    writeFileAtomically(o.preview, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(png.data()), png.size()); });
+    writeOutputFile(*previewOut, [&](std::ostream& os) { os.write(reinterpret_cast<const char*>(png.data()), png.size()); });
   }
   sum.totalSeconds = secondsSince(tStart);
   sum.totalCpuSeconds = double(std::clock() - cStart) / CLOCKS_PER_SEC;
@@ -396,7 +397,8 @@ SynthSummary SynthApp::run() {
   j["labels"] = {{"format", "8-bit PNG of Cityscapes trainIds, 255 = unlabeled"},
                  {"pattern", name + "_Labels/LABEL_%06d.png (frame index)"}};
   j["summary"] = sum.toJson();
-  writeFileAtomically(sum.info, [&](std::ostream& os) { os << j.dump(2) << "\n"; });
+  writeOutputFile(infoOut, [&](std::ostream& os) { os << j.dump(2) << "\n"; });
+  outputs.commit();
   progress.finish(std::to_string(frames) + " frames");
   return sum;
 }

@@ -1,10 +1,19 @@
-// End to end: the slam-synth binary and the stock MRPT tool read what we write.
+// End to end: the slam-synth binary and the stock MRPT tool read what we write; an interrupted run leaves
+// nothing behind.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
+#include <vector>
+
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -58,4 +67,65 @@ TEST(SlamSynthE2E, BadInputGivesOneErrorLineAndExitCode1) {
   EXPECT_EQ(err.rfind("slam-synth: error: ", 0), 0u) << err;
   EXPECT_NE(err.find("moon"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(d) || (fs::directory_iterator(d)->path().filename() == "err.txt"));
+}
+
+namespace {
+/// Paths under `dir` (recursively) whose name holds ".tmp-": the temporaries of AtomicOutput.
+std::vector<fs::path> temporariesUnder(const fs::path& dir) {
+  std::vector<fs::path> found;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    if (it->path().filename().string().find(".tmp-") != std::string::npos) found.push_back(it->path());
+  return found;
+}
+
+/// True once the images temporary of slam-synth holds a file (the run is writing its outputs).
+bool writingStarted(const fs::path& dir) {
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.find("_Images.tmp-") != std::string::npos && it->is_directory() && !fs::is_empty(it->path(), ec))
+      return true;
+  }
+  return false;
+}
+}  // namespace
+
+// Reliability (doc/reliability.md): SIGINT / SIGTERM while the outputs are being written leave no temporary
+// file behind, commit nothing, and end the process by the signal (non-zero exit).
+TEST(SlamSynthE2E, InterruptLeavesNoTemporaryFiles) {
+  if (!fs::exists(tool())) GTEST_SKIP() << "slam-synth not built";
+  for (const int sig : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(sig == SIGINT ? "SIGINT" : "SIGTERM");
+    const fs::path d = tempDir("signal_" + std::to_string(sig));
+    const std::string exe = tool().string(), out = d.string();  // no allocation after fork
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      // As from an interactive shell, whatever the test runner ignores.
+      ::signal(SIGINT, SIG_DFL);
+      ::signal(SIGTERM, SIG_DFL);
+      const int devNull = ::open("/dev/null", O_WRONLY);
+      ::dup2(devNull, 1);
+      ::dup2(devNull, 2);
+      ::execl(exe.c_str(), exe.c_str(), "--scenario", "room", "--frames", "20000", "--width", "160", "--height",
+              "120", "--threads", "2", "--quiet", "--out", out.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    bool started = false;
+    while (!(started = writingStarted(d)) && std::chrono::steady_clock::now() < deadline) {
+      if (::waitpid(pid, nullptr, WNOHANG) == pid) break;  // ended on its own: reported below
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_TRUE(started) << "slam-synth did not start writing";
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // in the middle of writing frames
+    ::kill(pid, sig);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << "status " << status;
+    for (const auto& p : temporariesUnder(d)) ADD_FAILURE() << "left behind: " << p;
+    EXPECT_FALSE(fs::exists(d / "room.rawlog"));
+    fs::remove_all(d);
+  }
 }

@@ -271,3 +271,22 @@ TEST(SynthApp, GroundTruthReprojectsDepthBetweenFrames) {
   ASSERT_GT(checked, 2000);
   EXPECT_GT(agree, 0.9 * checked) << agree << " of " << checked;
 }
+
+// Reliability (doc/reliability.md): a run commits all of its outputs or none; an impossible preview path is
+// found before anything is written.
+TEST(SynthApp, ImpossiblePreviewPathFailsBeforeAnythingIsCommitted) {
+  const fs::path d = tempDir("preview_impossible");
+  std::ofstream(d / "file.txt") << "a file, not a folder";
+  SynthOptions o = small("room", d / "out", 1);
+  o.preview = d / "file.txt" / "preview.png";
+  try {
+    SynthApp(o).run();
+    ADD_FAILURE() << "expected pslam::Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("file.txt: cannot create output folder"), std::string::npos) << e.what();
+  }
+  for (const char* name : {"room.rawlog", "room_Images", "room_Labels", "room_groundtruth.txt", "room_synth.json"})
+    EXPECT_FALSE(fs::exists(d / "out" / name)) << name;
+  if (fs::exists(d / "out"))
+    for (const auto& e : fs::directory_iterator(d / "out")) ADD_FAILURE() << "left behind: " << e.path();
+}

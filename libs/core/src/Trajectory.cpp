@@ -36,12 +36,30 @@ StampedPose StampedPose::fromCPose3D(double t, const mrpt::poses::CPose3D& T_wor
   return StampedPose(t, T);
 }
 
-Trajectory readTumTrajectory(const std::filesystem::path& path) {
+std::string stampOrderError(const std::filesystem::path& path, int line, double stamp, int previousLine) {
+  char t[64];
+  std::snprintf(t, sizeof t, "%.6f", stamp);
+  return path.string() + ":" + std::to_string(line) + ": timestamp " + t + " is before the previous one (line " +
+         std::to_string(previousLine) + ")";
+}
+
+std::string duplicateStampNote(const Trajectory& trajectory, const std::filesystem::path& path) {
+  std::size_t duplicates = 0, first = 0;
+  for (std::size_t k = 1; k < trajectory.size(); ++k)
+    if (trajectory[k].timestamp == trajectory[k - 1].timestamp && duplicates++ == 0) first = k;
+  if (duplicates == 0) return "";
+  char t[64];
+  std::snprintf(t, sizeof t, "%.6f", trajectory[first].timestamp);
+  return path.string() + ": " + std::to_string(duplicates) + " pose" + (duplicates > 1 ? "s have" : " has") +
+         " the timestamp of the previous one (first: pose " + std::to_string(first) + ", " + t + ")";
+}
+
+Trajectory readTumTrajectory(const std::filesystem::path& path, StampOrder order) {
   std::ifstream f(path);
   if (!f) throw Error(path.string() + ": cannot open trajectory file");
   Trajectory out;
   std::string line;
-  int lineNo = 0;
+  int lineNo = 0, previousLine = 0;
   while (std::getline(f, line)) {
     ++lineNo;
     const auto first = line.find_first_not_of(" \t\r");
@@ -62,6 +80,9 @@ Trajectory readTumTrajectory(const std::filesystem::path& path) {
       throw Error(path.string() + ":" + std::to_string(lineNo) + ": more than 8 values on a TUM line");
     Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     if (q.norm() < 1e-6) throw Error(path.string() + ":" + std::to_string(lineNo) + ": zero quaternion");
+    if (order == StampOrder::NonDecreasing && !out.empty() && v[0] < out.back().timestamp)
+      throw Error(stampOrderError(path, lineNo, v[0], previousLine));
+    previousLine = lineNo;
     StampedPose p;
     p.timestamp = v[0];
     p.position = Eigen::Vector3d(v[1], v[2], v[3]);

@@ -88,6 +88,24 @@ TEST(AtomicOutput, UncommittedOutputLeavesNothing) {
   EXPECT_TRUE(fs::exists(d / "sub" / "ok.txt"));
 }
 
+// Reliability (doc/reliability.md): an output never replaces a folder, whatever that folder holds.
+TEST(AtomicOutput, NeverReplacesAFolderWithAFile) {
+  const fs::path d = tempDir("folder_target");
+  fs::create_directories(d / "map.slammap");
+  std::ofstream(d / "map.slammap" / "notes.txt") << "precious";
+  try {
+    writeFileAtomically(d / "map.slammap", [](std::ostream& os) { os << "new"; });
+    ADD_FAILURE() << "a folder was replaced by a file";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("map.slammap: is a folder; refusing to replace it with a file"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(fs::exists(d / "map.slammap" / "notes.txt"));
+  for (const auto& e : fs::directory_iterator(d))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+}
+
 TEST(StageTimings, PercentilesAndSummary) {
   EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4, 5}, 50), 3.0);
   EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4, 5}, 90), 4.6);

@@ -45,10 +45,11 @@ mrpt::img::TCamera loadCameraIni(const fs::path& iniFile, const std::string& sec
   try {
     cam.loadFromConfigFile(section, cfg);
   } catch (const std::exception& e) {
-    std::string msg = e.what();
-    // MRPT exceptions carry a multi-line trace; the first line that names the key is enough.
-    const auto nl = msg.find('\n');
-    if (nl != std::string::npos) msg = msg.substr(0, nl);
+    // MRPT exceptions carry a banner, a location and a call stack: keep the message, which names the key.
+    std::string msg = oneLineMessage(e);
+    const std::string internal = " and failIfNotFound=true.";
+    if (msg.size() > internal.size() && msg.compare(msg.size() - internal.size(), internal.size(), internal) == 0)
+      msg.resize(msg.size() - internal.size());
     throw Error(iniFile.string() + ": [" + section + "]: invalid TCamera block (keys resolution, fx, fy, cx, cy, " +
                 "dist, distortion_model): " + msg);
   }

@@ -6,7 +6,6 @@
 #include <optional>
 #include <vector>
 
-#include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/io/lazy_load_path.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
@@ -16,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/GzipStream.h"
 
 namespace fs = std::filesystem;
 
@@ -82,8 +82,10 @@ bool decodeNormal(const cv::Vec3b& px, cv::Vec3d& n) {
 struct RawlogWriter::Impl {
   fs::path rawlogPath;
   std::string ext;
-  std::optional<AtomicOutput> rawlogOut;
-  std::optional<AtomicOutput> imagesOut;
+  std::optional<AtomicOutput> ownImages;  // without an OutputSet: the writer's own outputs
+  std::optional<AtomicOutput> ownRawlog;
+  AtomicOutput* rawlogOut = nullptr;
+  AtomicOutput* imagesOut = nullptr;
   mrpt::io::CFileGZOutputStream stream;
   std::optional<cv::Size> size;
   bool open = false;
@@ -93,18 +95,31 @@ fs::path RawlogWriter::imagesDirFor(const fs::path& rawlogPath) {
   return rawlogPath.parent_path() / (rawlogPath.stem().string() + "_Images");
 }
 
-RawlogWriter::RawlogWriter(fs::path rawlogPath, std::string imageExtension) : impl_(std::make_unique<Impl>()) {
+OutputKind RawlogWriter::imagesFolderKind() {
+  return OutputKind::folder("(CAMERA|SEMANTIC|NORMALS)_[0-9]{6,}\\.(png|bmp|tiff|ppm|pgm)");
+}
+
+std::vector<fs::path> RawlogWriter::inputFilesOf(const fs::path& rawlogPath) {
+  if (rawlogPath.empty()) return {};
+  return {rawlogPath, imagesDirFor(rawlogPath)};
+}
+
+RawlogWriter::RawlogWriter(fs::path rawlogPath, std::string imageExtension, OutputSet* outputs)
+    : impl_(std::make_unique<Impl>()) {
   auto& d = *impl_;
   d.rawlogPath = std::move(rawlogPath);
   d.ext = std::move(imageExtension);
   if (!d.ext.empty() && d.ext[0] == '.') d.ext.erase(0, 1);
   require(d.ext == "png" || d.ext == "bmp" || d.ext == "tiff" || d.ext == "ppm" || d.ext == "pgm",
           d.rawlogPath.string(), "image format '" + d.ext + "' is not lossless (use png, bmp, tiff, ppm or pgm)");
-  d.rawlogOut.emplace(d.rawlogPath);
-  d.imagesOut.emplace(imagesDirFor(d.rawlogPath));
-  std::error_code ec;
-  fs::create_directories(d.imagesOut->tempPath(), ec);
-  if (ec) throw Error(d.imagesOut->finalPath().string() + ": cannot create images folder (" + ec.message() + ")");
+  // Images first: committed in this order, a reader never sees the rawlog without its images.
+  if (outputs) {
+    d.imagesOut = &outputs->add(imagesDirFor(d.rawlogPath), imagesFolderKind());
+    d.rawlogOut = &outputs->add(d.rawlogPath);
+  } else {
+    d.imagesOut = &d.ownImages.emplace(imagesDirFor(d.rawlogPath), imagesFolderKind());
+    d.rawlogOut = &d.ownRawlog.emplace(d.rawlogPath);
+  }
   if (!d.stream.open(d.rawlogOut->tempPath().string(), 1))
     throw Error(d.rawlogPath.string() + ": cannot open for writing");
   d.open = true;
@@ -175,49 +190,93 @@ void RawlogWriter::commit() {
   require(d.open, d.rawlogPath.string(), "commit called twice");
   d.stream.close();
   d.open = false;
-  d.imagesOut->commit();
-  d.rawlogOut->commit();
+  if (d.ownImages) d.ownImages->commit();
+  if (d.ownRawlog) d.ownRawlog->commit();
 }
 
 // ------------------------------------------------------------------------------------------------ reader
+namespace {
+
+/// The objects of a rawlog, read from a verified gzip stream. MRPT's archive reports any failure inside an
+/// object as end of file; the end is taken as such only when no byte of a next object was read and the gzip
+/// stream ended verified. Everything else is an error naming the file, the object and the frame.
+class ObjectStream {
+ public:
+  explicit ObjectStream(const fs::path& path) : path_(path), stream_(path) {}
+
+  /// The next object, or nullptr at the end. `framesBefore` (CAMERA observations read before it) is only for
+  /// the message.
+  mrpt::serialization::CSerializable::Ptr next(std::size_t framesBefore) {
+    if (end_) return nullptr;
+    const std::uint64_t before = stream_.getPosition();
+    try {
+      auto arch = mrpt::serialization::archiveFrom(stream_);
+      auto obj = arch.ReadObject();
+      if (!obj) throw Error("a null object");  // MRPT's "nullptr" record: never written to a rawlog
+      ++objects_;
+      return obj;
+    } catch (const std::exception& e) {
+      if (stream_.failure().empty() && stream_.atEnd() && stream_.getPosition() == before) {
+        end_ = true;
+        return nullptr;
+      }
+      const std::string mrpt = oneLineMessage(e);
+      std::string why = !stream_.failure().empty() ? stream_.failure()
+                        : stream_.getPosition() == before ? mrpt
+                                                          : "object cut short or malformed (" + mrpt + ")";
+      if (const auto at = mrpt.find("has class '"); stream_.failure().empty() && at != std::string::npos)
+        why = "an object of the unknown class '" + mrpt.substr(at + 11, mrpt.find('\'', at + 11) - at - 11) +
+              "' (not a rawlog of observations?)";
+      throw Error(path_.string() + ": corrupt rawlog at object " + std::to_string(objects_) + " (after " +
+                  std::to_string(framesBefore) + " frames): " + why);
+    }
+  }
+  std::size_t objectsRead() const { return objects_; }
+
+ private:
+  fs::path path_;
+  GzipInputStream stream_;
+  std::size_t objects_ = 0;
+  bool end_ = false;
+};
+
+std::unique_ptr<ObjectStream> openRawlog(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw Error(path.string() + ": rawlog file not found");
+  // The whole gzip stream is verified before any object is decoded: data that a corrupt stream delivers before
+  // its CRC-32 is checked (garbage sizes and counts) never reaches MRPT's deserialization.
+  try {
+    verifyGzipFile(path);
+  } catch (const Error& e) {
+    const std::string prefix = path.string() + ": ";
+    const std::string what = e.what();
+    throw Error(prefix + "corrupt rawlog: " + (what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what));
+  }
+  return std::make_unique<ObjectStream>(path);
+}
+
+}  // namespace
+
 struct RawlogReader::Impl {
   fs::path path;
   fs::path imagesDir;
-  mrpt::io::CFileGZInputStream stream;
+  std::unique_ptr<ObjectStream> objects;
   mrpt::serialization::CSerializable::Ptr pending;  // the next object, already read (look-ahead)
-  bool eof = false;
   std::size_t frameIndex = 0;
-  std::size_t objectIndex = 0;
   std::optional<cv::Size> size;
 
-  mrpt::serialization::CSerializable::Ptr readObject() {
+  /// `framesBefore`: CAMERA observations read so far (for messages).
+  mrpt::serialization::CSerializable::Ptr readObject(std::size_t framesBefore) {
     if (pending) return std::exchange(pending, nullptr);
-    if (eof) return nullptr;
-    try {
-      auto arch = mrpt::serialization::archiveFrom(stream);
-      auto obj = arch.ReadObject();
-      ++objectIndex;
-      return obj;
-    } catch (const mrpt::serialization::CExceptionEOF&) {
-      eof = true;
-      return nullptr;
-    } catch (const std::exception& e) {
-      throw Error(path.string() + ": corrupt rawlog after object " + std::to_string(objectIndex) + " (frame " +
-                  std::to_string(frameIndex) + "): " + firstLine(e.what()));
-    }
+    return objects->next(framesBefore);
   }
-  static std::string firstLine(const std::string& s) {
-    const auto p = s.find('\n');
-    return p == std::string::npos ? s : s.substr(0, p);
-  }
+  std::size_t objectIndex() const { return objects->objectsRead(); }
 };
 
 RawlogReader::RawlogReader(fs::path rawlogPath) : impl_(std::make_unique<Impl>()) {
   auto& d = *impl_;
   d.path = std::move(rawlogPath);
-  std::error_code ec;
-  if (!fs::is_regular_file(d.path, ec)) throw Error(d.path.string() + ": rawlog file not found");
-  if (!d.stream.open(d.path.string())) throw Error(d.path.string() + ": cannot open rawlog");
+  d.objects = openRawlog(d.path);
   d.imagesDir = RawlogWriter::imagesDirFor(d.path);
 }
 
@@ -242,14 +301,25 @@ cv::Mat loadImage(const mrpt::img::CImage& img, const fs::path& imagesDir, const
 
 bool RawlogReader::next(Frame& f) {
   auto& d = *impl_;
+  try {
+    return readFrame(f);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {  // MRPT / OpenCV failures while decoding the frame's data
+    throw Error(frameContext(d.path, d.frameIndex) + ": " + oneLineMessage(e));
+  }
+}
+
+bool RawlogReader::readFrame(Frame& f) {
+  auto& d = *impl_;
   mrpt::obs::CObservationImage::Ptr cam;
   // Skip objects that are not observations of the contract until a CAMERA appears.
   while (!cam) {
-    auto obj = d.readObject();
+    auto obj = d.readObject(d.frameIndex);
     if (!obj) return false;
     auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
     if (!obs) {
-      throw Error(d.path.string() + ": object " + std::to_string(d.objectIndex) + " is a " +
+      throw Error(d.path.string() + ": object " + std::to_string(d.objectIndex() - 1) + " is a " +
                   obj->GetRuntimeClass()->className +
                   ", not an observation (only observation-only rawlogs are supported)");
     }
@@ -272,7 +342,7 @@ bool RawlogReader::next(Frame& f) {
 
   // Attach the channels that share the CAMERA timestamp.
   for (;;) {
-    auto obj = d.readObject();
+    auto obj = d.readObject(d.frameIndex + 1);
     if (!obj) break;
     auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
     if (!obs || obs->sensorLabel == kCameraLabel ||
@@ -312,22 +382,11 @@ bool RawlogReader::next(Frame& f) {
 }
 
 std::size_t RawlogReader::countFrames(const fs::path& rawlogPath) {
-  mrpt::io::CFileGZInputStream s;
-  std::error_code ec;
-  if (!fs::is_regular_file(rawlogPath, ec) || !s.open(rawlogPath.string()))
-    throw Error(rawlogPath.string() + ": rawlog file not found");
+  auto objects = openRawlog(rawlogPath);
   std::size_t n = 0;
-  auto arch = mrpt::serialization::archiveFrom(s);
-  for (;;) {
-    try {
-      auto obj = arch.ReadObject();
-      auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
-      if (obs && obs->sensorLabel == kCameraLabel) ++n;
-    } catch (const mrpt::serialization::CExceptionEOF&) {
-      break;
-    } catch (const std::exception& e) {
-      throw Error(rawlogPath.string() + ": corrupt rawlog after " + std::to_string(n) + " frames");
-    }
+  while (auto obj = objects->next(n)) {
+    auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
+    if (obs && obs->sensorLabel == kCameraLabel) ++n;
   }
   return n;
 }

@@ -142,6 +142,23 @@ TEST(Camera, BrokenIniNamesFileAndSection) {
   expectError([&] { loadCameraIni(d / "missing.ini"); }, {"missing.ini", "not found"});
 }
 
+// Reliability (doc/reliability.md): a camera ini with only its section header names the missing key in one
+// line, without MRPT's exception banner.
+TEST(Camera, IniWithOnlyTheSectionHeaderNamesTheMissingKey) {
+  const fs::path d = freshDir("emptycamini");
+  writeText(d / "cam.ini", "[CAMERA]\n");
+  try {
+    loadCameraIni(d / "cam.ini");
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("cam.ini"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("'resolution' not found"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find("MRPT exception"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+}
+
 // ------------------------------------------------------------------------------------------------ TUM
 TEST(TumReader, AssociatesDepthLikeAssociatePyAndInterpolatesGroundTruth) {
   const fs::path root = freshDir("tum_assoc") / "rgbd_dataset_freiburg1_test";

@@ -115,7 +115,7 @@ Trajectory readKittiTrajectory(const std::filesystem::path& path, const std::fil
   if (!timesPath.empty()) {
     auto tf = openOrThrow(timesPath, "KITTI times file");
     std::size_t k = 0;
-    int tl = 0;
+    int tl = 0, previousLine = 0;
     while (std::getline(tf, line)) {
       ++tl;
       if (!isDataLine(line)) continue;
@@ -124,6 +124,8 @@ Trajectory readKittiTrajectory(const std::filesystem::path& path, const std::fil
       if (k >= out.size())
         throw Error(timesPath.string() + ": more times than the " + std::to_string(out.size()) + " poses of " +
                     path.string());
+      if (k > 0 && v[0] < out[k - 1].timestamp) throw Error(stampOrderError(timesPath, tl, v[0], previousLine));
+      previousLine = tl;
       out[k++].timestamp = v[0];
     }
     if (k != out.size())
@@ -137,7 +139,8 @@ Trajectory readEurocTrajectory(const std::filesystem::path& path) {
   auto f = openOrThrow(path, "EuRoC csv trajectory file");
   Trajectory out;
   std::string line;
-  int lineNo = 0;
+  int lineNo = 0, previousLine = 0;
+  std::int64_t previousNs = 0;
   std::vector<double> v;
   while (std::getline(f, line)) {
     ++lineNo;
@@ -164,6 +167,9 @@ Trajectory readEurocTrajectory(const std::filesystem::path& path) {
     StampedPose p;
     // Seconds = whole seconds + fractional part, so no precision is lost before the final double.
     p.timestamp = static_cast<double>(ns / 1000000000) + static_cast<double>(ns % 1000000000) * 1e-9;
+    if (!out.empty() && ns < previousNs) throw Error(stampOrderError(path, lineNo, p.timestamp, previousLine));
+    previousLine = lineNo;
+    previousNs = ns;
     p.position = Eigen::Vector3d(v[0], v[1], v[2]);
     p.orientation = q.normalized();
     out.push_back(p);
@@ -175,7 +181,7 @@ Trajectory readTrajectory(const std::filesystem::path& path, TrajectoryFormat fo
                           const std::filesystem::path& kittiTimesPath) {
   if (format == TrajectoryFormat::Auto) format = detectTrajectoryFormat(path);
   switch (format) {
-    case TrajectoryFormat::Tum: return readTumTrajectory(path);
+    case TrajectoryFormat::Tum: return readTumTrajectory(path, StampOrder::NonDecreasing);
     case TrajectoryFormat::Kitti: return readKittiTrajectory(path, kittiTimesPath);
     case TrajectoryFormat::Euroc: return readEurocTrajectory(path);
     case TrajectoryFormat::Auto: break;

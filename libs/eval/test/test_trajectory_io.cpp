@@ -86,3 +86,26 @@ TEST(TrajectoryIO, ReadTrajectoryDispatchesAndTumErrorsNameTheLine) {
                         {"n.txt:1"});
   EXPECT_THROW(parseTrajectoryFormat("csv"), pslam::Error);
 }
+
+// Reliability (doc/reliability.md): stamps must be in time order; one before the previous names the file and
+// line (TUM, EuRoC, and the times file of KITTI). Duplicates are kept (published ground truth has them) and noted.
+TEST(TrajectoryIO, StampsGoingBackNameTheFileAndLine) {
+  TempDir d("order");
+  expectErrorContaining([&] { readTrajectory(d.write("back.txt", "# c\n2.0 0 0 0 0 0 0 1\n1.0 0 0 0 0 0 0 1\n")); },
+                        {"back.txt:3", "timestamp 1.000000 is before the previous one (line 2)"});
+  expectErrorContaining(
+      [&] {
+        readTrajectory(d.write("e.csv", "#t\n1403715524907143168,0,0,0,1,0,0,0\n1403715524907143167,0,0,0,1,0,0,0\n"));
+      },
+      {"e.csv:3", "is before the previous one (line 2)"});
+  const auto kitti = d.write("k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 0\n");
+  expectErrorContaining([&] { readTrajectory(kitti, TrajectoryFormat::Kitti, d.write("kt.txt", "0.5\n0.4\n")); },
+                        {"kt.txt:2", "is before the previous one (line 1)"});
+  EXPECT_EQ(readTrajectory(kitti, TrajectoryFormat::Kitti).size(), 2u);  // index stamps
+
+  const auto dup = d.write("dup.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n3.0 0 0 0 0 0 0 1\n");
+  const auto t = readTrajectory(dup);
+  EXPECT_EQ(t.size(), 4u);
+  EXPECT_EQ(pslam::duplicateStampNote(t, dup), dup.string() + ": 1 pose has the timestamp of the previous one (first: pose 2, 2.000000)");
+  EXPECT_EQ(pslam::duplicateStampNote(readTrajectory(kitti, TrajectoryFormat::Kitti), kitti), "");
+}

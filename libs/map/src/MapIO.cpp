@@ -2,16 +2,17 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <mutex>
 
-#include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/rtti/CObject.h>
 #include <mrpt/serialization/CArchive.h>
 
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/GzipStream.h"
 
 namespace pslam::map {
 
@@ -31,29 +32,37 @@ using mrpt::serialization::CArchive;
 
 // Guards against absurd counts read from a corrupt file (they would otherwise allocate gigabytes).
 constexpr std::uint64_t kMaxCount = 100'000'000ULL;
+constexpr std::uint64_t kMaxPyramidLevels = 64;
+constexpr std::uint64_t kMaxLandmarkState = 1024;
+constexpr std::int32_t kMaxImageSide = 1 << 16;
 constexpr std::uint32_t kEndSentinel = 0x534C4D45;  // "SLME"
 
-std::uint64_t readCount(CArchive& in, const char* what) {
+std::uint64_t readCount(CArchive& in, const char* what, std::uint64_t max = kMaxCount) {
   std::uint64_t n = 0;
   in >> n;
-  if (n > kMaxCount) throw Error(std::string("implausible ") + what + " count " + std::to_string(n));
+  if (n > max) throw Error(std::string("implausible ") + what + " count " + std::to_string(n));
   return n;
 }
 
 std::size_t cappedReserve(std::uint64_t n) { return static_cast<std::size_t>(std::min<std::uint64_t>(n, 1u << 16)); }
+
+void requireFinite(double x, const std::string& context, const char* what) {
+  if (!std::isfinite(x)) throw Error(context + ": " + what + " is NaN or Inf");
+}
 
 void writeDoubles(CArchive& out, const std::vector<double>& v) {
   out << std::uint64_t(v.size());
   for (double x : v) out << x;
 }
 
-std::vector<double> readDoubles(CArchive& in, const char* what) {
-  const std::uint64_t n = readCount(in, what);
+std::vector<double> readDoubles(CArchive& in, const char* what, std::uint64_t max, const std::string& context) {
+  const std::uint64_t n = readCount(in, what, max);
   std::vector<double> v;
   v.reserve(cappedReserve(n));
   for (std::uint64_t i = 0; i < n; ++i) {
     double x = 0.0;
     in >> x;
+    requireFinite(x, context, what);
     v.push_back(x);
   }
   return v;
@@ -67,16 +76,26 @@ void writeMat(CArchive& out, const cv::Mat& m) {
   out.WriteBuffer(c.data, c.total() * c.elemSize());
 }
 
-cv::Mat readMat(CArchive& in) {
+/// A descriptor matrix: empty, or `maxRows` rows at most of 32 bytes.
+cv::Mat readMat(CArchive& in, std::int64_t maxRows, const std::string& context) {
   std::int32_t rows = 0, cols = 0, type = 0;
   in >> rows >> cols >> type;
-  if (rows == 0 || cols == 0) return {};
-  if (rows < 0 || rows > 10'000'000 || cols != 32 || type != CV_8UC1)
-    throw Error("invalid descriptor matrix header");
+  if (rows == 0 && cols == 0) return {};
+  if (rows <= 0 || rows > maxRows || cols != 32 || type != CV_8UC1)
+    throw Error(context + ": invalid descriptor matrix header (" + std::to_string(rows) + " x " + std::to_string(cols) +
+                ", type " + std::to_string(type) + ")");
   cv::Mat m(rows, cols, type);
   const std::size_t bytes = m.total() * m.elemSize();
-  if (in.ReadBuffer(m.data, bytes) != bytes) throw Error("truncated descriptor matrix");
+  if (in.ReadBuffer(m.data, bytes) != bytes) throw Error(context + ": truncated descriptor matrix");
   return m;
+}
+
+/// A serialized bool: one byte, 0 or 1 (reading it into a bool directly is undefined for other values).
+bool readFlag(CArchive& in, const std::string& context, const char* what) {
+  std::uint8_t b = 0;
+  in >> b;
+  if (b > 1) throw Error(context + ": flag '" + what + "' is " + std::to_string(b) + " (expected 0 or 1)");
+  return b == 1;
 }
 
 void writeVec3(CArchive& out, const Eigen::Vector3d& v) { out << v.x() << v.y() << v.z(); }
@@ -113,12 +132,18 @@ KeyFrame readKeyFrame(CArchive& in) {
   std::uint64_t u = 0;
   in >> u >> kf.timestamp;
   kf.id = u;
+  if (kf.id == kNoKeyFrame) throw Error("keyframe with the reserved id " + std::to_string(u));
+  const std::string ctx = "keyframe " + std::to_string(kf.id);
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) in >> kf.T_cam_world.matrix()(r, c);
   std::int32_t w = 0, h = 0;
   in >> kf.camera.fx >> kf.camera.fy >> kf.camera.cx >> kf.camera.cy >> w >> h;
+  if (w <= 0 || h <= 0 || w > kMaxImageSide || h > kMaxImageSide)
+    throw Error(ctx + ": image size " + std::to_string(w) + "x" + std::to_string(h) + " outside [1, " +
+                std::to_string(kMaxImageSide) + "]");
   kf.camera.width = w;
   kf.camera.height = h;
+  kf.camera.check(ctx);
   // Containers grow element by element (reserve is capped): a corrupt count fails at the end of the data
   // instead of allocating gigabytes first.
   const std::uint64_t nKeypoints = readCount(in, "keypoint");
@@ -127,21 +152,30 @@ KeyFrame readKeyFrame(CArchive& in) {
     cv::KeyPoint k;
     std::int32_t octave = 0, classId = 0;
     in >> k.pt.x >> k.pt.y >> k.size >> k.angle >> k.response >> octave >> classId;
+    // Undistorted keypoints may lie a little outside the image; one image size around it is generous.
+    const bool inside = std::isfinite(k.pt.x) && std::isfinite(k.pt.y) && k.pt.x >= -w && k.pt.x <= 2.0 * w &&
+                        k.pt.y >= -h && k.pt.y <= 2.0 * h;
+    if (!inside)
+      throw Error(ctx + ": keypoint " + std::to_string(i) + " at (" + std::to_string(k.pt.x) + ", " +
+                  std::to_string(k.pt.y) + ") is far outside the " + std::to_string(w) + "x" + std::to_string(h) +
+                  " image");
+    if (!std::isfinite(k.size) || k.size < 0.f || !std::isfinite(k.angle) || !std::isfinite(k.response))
+      throw Error(ctx + ": keypoint " + std::to_string(i) + " has a NaN/Inf or negative size, angle or response");
     k.octave = octave;
     k.class_id = classId;
     kf.keypoints.push_back(k);
   }
-  kf.descriptors = readMat(in);
-  kf.scaleFactors = readDoubles(in, "scale factor");
-  kf.levelSigma2 = readDoubles(in, "level sigma2");
-  const std::uint64_t nSemantic = readCount(in, "semantic");
+  kf.descriptors = readMat(in, static_cast<std::int64_t>(nKeypoints), ctx);
+  kf.scaleFactors = readDoubles(in, "scale factor", kMaxPyramidLevels, ctx);
+  kf.levelSigma2 = readDoubles(in, "level sigma2", kMaxPyramidLevels, ctx);
+  const std::uint64_t nSemantic = readCount(in, "semantic", nKeypoints);
   kf.semanticProbabilities.reserve(cappedReserve(nSemantic));
   for (std::uint64_t i = 0; i < nSemantic; ++i) {
     std::array<float, 3> s{};
     in >> s[0] >> s[1] >> s[2];
     kf.semanticProbabilities.push_back(s);
   }
-  const std::uint64_t nIds = readCount(in, "map point id");
+  const std::uint64_t nIds = readCount(in, "map point id", nKeypoints);
   kf.mapPointIds.reserve(cappedReserve(nIds));
   for (std::uint64_t i = 0; i < nIds; ++i) {
     in >> u;
@@ -151,15 +185,17 @@ KeyFrame readKeyFrame(CArchive& in) {
   for (std::uint64_t i = 0; i < nShared; ++i) {
     std::int32_t weight = 0;
     in >> u >> weight;
-    kf.sharedPoints[u] = weight;
+    if (weight <= 0 || u == kf.id || !kf.sharedPoints.emplace(u, weight).second)
+      throw Error(ctx + ": invalid covisibility entry " + std::to_string(u) + " (weight " + std::to_string(weight) + ")");
   }
   in >> u;
   kf.parent = u;
   const std::uint64_t nChildren = readCount(in, "children");
   for (std::uint64_t i = 0; i < nChildren; ++i) {
     in >> u;
-    kf.children.insert(u);
+    if (u == kf.id || !kf.children.insert(u).second) throw Error(ctx + ": invalid child " + std::to_string(u));
   }
+  kf.check(ctx);  // pose, pyramid, octaves, descriptor and semantic sizes, probabilities in [0, 1]
   return kf;
 }
 
@@ -179,6 +215,8 @@ MapPoint readMapPoint(CArchive& in) {
   MapPoint p;
   std::uint64_t id = 0, anchor = 0, anchorKp = 0, first = 0;
   in >> id >> anchor >> anchorKp;
+  if (id == kNoMapPoint) throw Error("map point with the reserved id " + std::to_string(id));
+  const std::string ctx = "map point " + std::to_string(id);
   p.id = id;
   p.anchorKeyFrame = anchor;
   p.anchorKeypoint = anchorKp;
@@ -188,13 +226,22 @@ MapPoint readMapPoint(CArchive& in) {
   for (std::uint64_t i = 0; i < nObs; ++i) {
     std::uint64_t kf = 0, k = 0;
     in >> kf >> k;
-    p.observations[kf] = k;
+    if (!p.observations.emplace(kf, k).second) throw Error(ctx + ": keyframe " + std::to_string(kf) + " observes it twice");
   }
-  p.descriptor = readMat(in);
+  p.descriptor = readMat(in, 1, ctx);
   p.normal = readVec3(in);
   std::int32_t visible = 0, found = 0;
-  in >> p.minDistance >> p.maxDistance >> visible >> found >> p.bad >> first;
-  p.landmarkState = readDoubles(in, "landmark state");
+  in >> p.minDistance >> p.maxDistance >> visible >> found;
+  p.bad = readFlag(in, ctx, "bad");
+  in >> first;
+  p.landmarkState = readDoubles(in, "landmark state", kMaxLandmarkState, ctx);
+  if (!p.normal.allFinite()) throw Error(ctx + ": normal is NaN or Inf");
+  if (!std::isfinite(p.minDistance) || !std::isfinite(p.maxDistance) || p.minDistance < 0.0 ||
+      p.maxDistance < p.minDistance)
+    throw Error(ctx + ": invalid distance range [" + std::to_string(p.minDistance) + ", " +
+                std::to_string(p.maxDistance) + "]");
+  if (visible < 0 || found < 0)
+    throw Error(ctx + ": negative visible / found counts (" + std::to_string(visible) + ", " + std::to_string(found) + ")");
   p.visibleCount = visible;
   p.foundCount = found;
   p.firstKeyFrame = first;
@@ -220,9 +267,11 @@ void CSlamMapArchive::serializeFrom(mrpt::serialization::CArchive& in, uint8_t v
   readFailure.clear();
   try {
     readContent(in, version);
-  } catch (const std::exception& e) {
+  } catch (const Error& e) {
     readFailure = e.what();
-    readFailure = readFailure.substr(0, readFailure.find('\n'));
+    throw;
+  } catch (const std::exception& e) {  // MRPT's: the archive ends inside the map
+    readFailure = "malformed map data (" + oneLineMessage(e) + ")";
     throw;
   }
 }
@@ -240,6 +289,8 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
   for (std::uint64_t i = 0; i < nKf; ++i) {
     KeyFrame kf = readKeyFrame(in);
     const KeyFrameId id = kf.id;
+    if (id >= nextKf)
+      throw Error("keyframe id " + std::to_string(id) + " is not below the next keyframe id " + std::to_string(nextKf));
     if (!MapSerializationAccess::keyframes(m).emplace(id, std::move(kf)).second)
       throw Error("duplicate keyframe id " + std::to_string(id));
   }
@@ -247,6 +298,11 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
   for (std::uint64_t i = 0; i < nPt; ++i) {
     MapPoint p = readMapPoint(in);
     const MapPointId id = p.id;
+    if (id >= nextPt)
+      throw Error("map point id " + std::to_string(id) + " is not below the next map point id " + std::to_string(nextPt));
+    if (p.firstKeyFrame != kNoKeyFrame && p.firstKeyFrame >= nextKf)
+      throw Error("map point " + std::to_string(id) + ": first keyframe " + std::to_string(p.firstKeyFrame) +
+                  " is not below the next keyframe id " + std::to_string(nextKf));
     if (!MapSerializationAccess::points(m).emplace(id, std::move(p)).second)
       throw Error("duplicate map point id " + std::to_string(id));
   }
@@ -281,24 +337,31 @@ Map loadMap(const std::filesystem::path& path) {
   std::call_once(registered, [] { mrpt::rtti::registerClass(CLASS_ID(CSlamMapArchive)); });
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw Error(path.string() + ": map file not found");
-  mrpt::io::CFileGZInputStream stream;
-  if (!stream.open(path.string())) throw Error(path.string() + ": cannot open map file");
+  GzipInputStream stream(path);
+  if (!stream.compressed()) throw Error(path.string() + ": not a .slammap file (not gzip-compressed)");
+  verifyGzipFile(path);  // before any field is decoded: a corrupt stream's data never reaches the reader
   CSlamMapArchive wrapper;
   try {
     auto arch = mrpt::serialization::archiveFrom(stream);
     arch.ReadObject(&wrapper);
+    stream.requireEnd();  // the CRC-32 and length of the gzip trailer are checked here at the latest
   } catch (const std::exception& e) {
+    // The first failure wins: the gzip stream's, then the content's (MRPT replaces exceptions thrown inside an
+    // object with its own end-of-file one), then MRPT's own.
+    if (!stream.failure().empty()) throw Error(path.string() + ": " + stream.failure());
     if (!wrapper.readFailure.empty()) throw Error(path.string() + ": " + wrapper.readFailure);
-    // MRPT messages are multi-line stack traces; keep the first line.
-    std::string msg = e.what();
-    const std::size_t m = msg.find("Message:");
-    if (m != std::string::npos) msg = msg.substr(m + 8);
-    msg = msg.substr(msg.find_first_not_of(' ') == std::string::npos ? 0 : msg.find_first_not_of(' '));
-    msg = msg.substr(0, msg.find('\n'));
-    throw Error(path.string() + ": not a readable .slammap file (truncated or corrupt: " + msg + ")");
+    // Another MRPT object: a class this program knows ("Stored: <class>") or not ("has class '<class>'").
+    const std::string what = e.what();
+    std::string cls;
+    if (const auto at = what.find("Stored: "); at != std::string::npos)
+      cls = what.substr(at + 8, what.find_first_of("\n ", at + 8) - at - 8);
+    else if (const auto at2 = what.find("has class '"); at2 != std::string::npos)
+      cls = what.substr(at2 + 11, what.find('\'', at2 + 11) - at2 - 11);
+    if (!cls.empty()) throw Error(path.string() + ": not a .slammap file (it holds a " + cls + ")");
+    if (dynamic_cast<const Error*>(&e)) throw;
+    throw Error(path.string() + ": not a readable .slammap file (truncated or corrupt: " + oneLineMessage(e) + ")");
   }
   try {
-    for (const auto& [id, kf] : wrapper.map.keyFrames()) kf.check("keyframe " + std::to_string(id));
     wrapper.map.checkInvariants("inconsistent content");
   } catch (const Error& e) {
     throw Error(path.string() + ": " + e.what());

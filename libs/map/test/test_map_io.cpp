@@ -8,6 +8,8 @@
 
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/poses/CPose3D.h>
+#include <mrpt/serialization/CArchive.h>
 
 #include "SyntheticMap.h"
 #include "pslam/core/Error.h"
@@ -130,7 +132,8 @@ TEST(MapIO, CorruptFile) {
   // Not gz / not a map at all.
   const fs::path text = tempDir() / "text.slammap";
   writeAll(text, "this is not a map\n");
-  expectLoadError(text);
+  const std::string foreign = expectLoadError(text);
+  EXPECT_NE(foreign.find("not a .slammap file (not gzip-compressed)"), std::string::npos) << foreign;
 }
 
 TEST(MapIO, WrongVersion) {
@@ -156,4 +159,86 @@ TEST(MapIO, WrongVersion) {
   }
   const std::string msg = expectLoadError(bumped);
   EXPECT_NE(msg.find("version 1"), std::string::npos) << msg;
+}
+
+namespace {
+/// The uncompressed MRPT archive inside a .slammap.
+std::string decompress(const fs::path& file) {
+  std::string raw;
+  mrpt::io::CFileGZInputStream in(file.string());
+  char buf[4096];
+  std::size_t n = 0;
+  while ((n = in.Read(buf, sizeof buf)) > 0) raw.append(buf, n);
+  return raw;
+}
+void compress(const std::string& raw, const fs::path& file) {
+  mrpt::io::CFileGZOutputStream out(file.string());
+  out.Write(raw.data(), raw.size());
+}
+}  // namespace
+
+// Reliability (doc/reliability.md): a flag byte other than 0 / 1 is refused (it used to be read straight into
+// a bool: undefined behaviour).
+TEST(MapIO, FlagByteOtherThanZeroOrOneIsRefused) {
+  Map map = richMap();
+  const MapPointId last = map.mapPoints().rbegin()->first;
+  map.mutableMapPoint(last).landmarkState.clear();
+  const fs::path file = tempDir() / "flag.slammap";
+  saveMap(map, file);
+  std::string raw = decompress(file);
+  // The archive ends with the last point's [bad u8][firstKeyFrame u64][landmark count u64 = 0], the end marker
+  // "SLME" (u32) and MRPT's end-of-object flag (u8).
+  const std::size_t at = raw.size() - 22;
+  ASSERT_EQ(raw.substr(raw.size() - 5, 4), std::string("EMLS"));
+  ASSERT_LE(std::uint8_t(raw[at]), 1u);
+  raw[at] = char(0x42);
+  const fs::path bad = tempDir() / "flag_0x42.slammap";
+  compress(raw, bad);
+  const std::string msg = expectLoadError(bad);
+  EXPECT_NE(msg.find("flag 'bad' is 66 (expected 0 or 1)"), std::string::npos) << msg;
+}
+
+// Reliability: keypoints must lie in (a margin around) the keyframe's image.
+TEST(MapIO, KeypointFarOutsideTheImageIsRefused) {
+  Map map = richMap();
+  const KeyFrameId id = map.keyFrames().begin()->first;
+  map.mutableKeyFrame(id).keypoints[0].pt.y = 3e38f;
+  const fs::path file = tempDir() / "far_keypoint.slammap";
+  saveMap(map, file);
+  const std::string msg = expectLoadError(file);
+  EXPECT_NE(msg.find("keypoint 0 at (" ), std::string::npos) << msg;
+  EXPECT_NE(msg.find("is far outside the 640x480 image"), std::string::npos) << msg;
+}
+
+// Reliability: the gzip stream is verified to its end (a changed CRC byte is corrupt data), and a truncated map
+// says so in one line without MRPT's exception banner.
+TEST(MapIO, GzipIsVerifiedAndTruncationIsOneLine) {
+  const fs::path file = tempDir() / "crc.slammap";
+  saveMap(richMap(), file);
+  std::string bytes = readAll(file);
+  bytes[bytes.size() - 6] = char(bytes[bytes.size() - 6] ^ 0x01);  // inside the CRC-32 of the trailer
+  const fs::path bad = tempDir() / "crc_bad.slammap";
+  writeAll(bad, bytes);
+  const std::string crc = expectLoadError(bad);
+  EXPECT_NE(crc.find("corrupt gzip data"), std::string::npos) << crc;
+
+  const std::string full = readAll(file);
+  const fs::path cut = tempDir() / "cut_one_line.slammap";
+  writeAll(cut, full.substr(0, full.size() / 2));
+  const std::string msg = expectLoadError(cut);
+  EXPECT_NE(msg.find("truncated"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find("MRPT exception"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+}
+
+// Reliability: another MRPT archive (here a pose) is named as such.
+TEST(MapIO, ForeignArchiveSaysWhatItHolds) {
+  const fs::path file = tempDir() / "pose.slammap";
+  {
+    mrpt::io::CFileGZOutputStream out(file.string());
+    auto arch = mrpt::serialization::archiveFrom(out);
+    arch << mrpt::poses::CPose3D(1, 2, 3, 0, 0, 0);
+  }
+  const std::string msg = expectLoadError(file);
+  EXPECT_NE(msg.find("not a .slammap file (it holds a mrpt::poses::CPose3D)"), std::string::npos) << msg;
 }

@@ -1,6 +1,8 @@
 // MapPoint::landmarkState is an opaque vector of doubles for the map (it stores and serializes it); the
 // layout below is owned by local mapping, the only writer of the probabilistic state.
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
 
 #include "pslam/core/Error.h"
@@ -36,6 +38,10 @@ landmarks::KeypointState decodeKeypointState(const std::vector<double>& v, const
   const double semanticUpdates = v[5 + landmarks::kNumSemanticClasses];
   if (depthUpdates < 0 || semanticUpdates < 0)
     throw Error(context + ": landmark state has a negative update count");
+  // A count beyond uint32 would make the conversion below undefined (e.g. from a corrupt map file).
+  constexpr double kMaxCount = static_cast<double>(std::numeric_limits<std::uint32_t>::max());
+  if (depthUpdates > kMaxCount || semanticUpdates > kMaxCount)
+    throw Error(context + ": landmark state has an implausible update count");
   s.depthUpdates = static_cast<std::uint32_t>(depthUpdates);
   s.semanticUpdates = static_cast<std::uint32_t>(semanticUpdates);
   if (!landmarks::isValidState(s)) throw Error(context + ": invalid landmark state (sigma2 or counts <= 0)");

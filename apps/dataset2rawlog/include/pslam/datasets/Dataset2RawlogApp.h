@@ -23,7 +23,7 @@ struct Dataset2RawlogOptions {
   std::string format = "auto";       ///< auto | tum | icl | kitti | euroc | folder
   std::size_t first = 0;             ///< first frame (0-based, in the dataset's order)
   std::size_t last = std::numeric_limits<std::size_t>::max();  ///< last frame, inclusive
-  std::size_t count = 0;             ///< > 0: at most this many frames (after stride)
+  std::size_t count = 0;             ///< at most this many frames (after stride); 0 = all
   std::size_t stride = 1;
   std::string color = "keep";        ///< keep | grey | colour
   std::string imageFormat = "png";   ///< lossless: png | bmp | tiff | ppm | pgm

@@ -31,7 +31,8 @@ struct ManhattanEvalResult {
   std::string text;       ///< human-readable summary table
 };
 
-/// Throws pslam::Error naming the file/frame on bad input.
+/// Throws pslam::Error naming the file/frame on bad input. The outputs (JSON, text, plot) are checked before the
+/// run (none may be an input or replace a folder) and either all are written or none.
 ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& options);
 
 inline constexpr const char* kTrackerSection = "ManhattanTracker";

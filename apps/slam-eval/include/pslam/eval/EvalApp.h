@@ -5,14 +5,19 @@
 #include <cstddef>
 #include <filesystem>
 #include <iosfwd>
+#include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "pslam/core/AtomicFile.h"
 #include "pslam/eval/Association.h"
 #include "pslam/eval/DepthRatio.h"
 #include "pslam/eval/Metrics.h"
+#include "pslam/eval/Plot.h"
 #include "pslam/eval/TrajectoryIO.h"
 
 namespace mrpt::config {
@@ -58,6 +63,8 @@ struct EvalResult {
   std::optional<RpeResult> rpe;
   std::optional<RotationErrorResult> rotationError;
   std::optional<DepthRatioResult> depthRatio;
+  /// Notes about the inputs, e.g. poses with the timestamp of the previous one (kept, as evo keeps them).
+  std::vector<std::string> warnings;
 };
 
 class EvalApp {
@@ -80,9 +87,33 @@ class EvalApp {
   /// (each atomically); returns the written paths.
   std::vector<std::filesystem::path> writePlots(const EvalResult& result, const std::filesystem::path& dir,
                                                 const std::string& titlePrefix = "") const;
+  /// The file names of the plots writePlots() writes with these options.
+  std::vector<std::string> plotFileNames() const;
+  /// The files a run reads besides the two trajectories: times files, DR samples, DR rawlog and its images.
+  std::vector<std::filesystem::path> inputFiles() const;
 
  private:
+  friend class EvalOutputFiles;
+  std::vector<std::pair<std::string, Plot>> makePlots(const EvalResult& result, const std::string& titlePrefix) const;
   EvalOptions options_;
+};
+
+/// The files of one slam-eval run (the JSON, the plots), prepared before the evaluation as one pslam::OutputSet:
+/// none may be an input (`inputs`, plus app.inputFiles()) or replace a folder, and either all are written or none.
+class EvalOutputFiles {
+ public:
+  /// Empty `jsonPath` / `plotDir`: no JSON / no plots. Throws pslam::Error naming the path at fault.
+  EvalOutputFiles(const EvalApp& app, const std::filesystem::path& jsonPath, const std::filesystem::path& plotDir,
+                  std::vector<std::filesystem::path> inputs);
+  ~EvalOutputFiles();
+  /// Writes `result` into every prepared output, then commits them all.
+  void write(const EvalResult& result);
+
+ private:
+  const EvalApp& app_;
+  std::unique_ptr<OutputSet> outputs_;
+  AtomicOutput* json_ = nullptr;
+  std::vector<AtomicOutput*> plots_;  // in the order of EvalApp::plotFileNames()
 };
 
 }  // namespace pslam::eval

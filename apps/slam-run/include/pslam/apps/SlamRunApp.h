@@ -6,7 +6,8 @@
 //   map.slammap     the map (System::saveMap)
 //   depths.txt      map-point depths per keyframe observation, for `slam-eval --depths` (DR, eq. 2.104)
 //   report.json     System::report() + the run's inputs (rawlog, config file, overrides, frame range)
-// Every file is written atomically.
+// Every file is written atomically; the four are prepared before the run (none may be an input or replace a
+// folder: pslam::OutputSet) and committed together at its end, so a failed run writes none of them.
 #include <cstdint>
 #include <filesystem>
 #include <string>

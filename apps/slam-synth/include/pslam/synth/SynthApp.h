@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <mrpt/config/CConfigFileBase.h>
 #include <nlohmann/json.hpp>
@@ -82,11 +83,15 @@ struct SynthSummary {
 
 class SynthApp {
  public:
-  explicit SynthApp(SynthOptions options);
+  /// `inputs`: files the run reads (the config file), which no output may replace.
+  explicit SynthApp(SynthOptions options, std::vector<std::filesystem::path> inputs = {});
+  /// Renders and writes the outputs. They are all prepared before rendering (none may be an input or replace a
+  /// folder; an impossible path fails at once) and committed together at the end: all are written or none.
   SynthSummary run();
 
  private:
   SynthOptions options_;
+  std::vector<std::filesystem::path> inputs_;
 };
 
 }  // namespace pslam::synth

@@ -25,10 +25,22 @@ struct StampedPose {
 
 using Trajectory = std::vector<StampedPose>;
 
+/// Whether a reader requires the stamps to be in time order.
+enum class StampOrder { Any, NonDecreasing };
+
 /// Reads a TUM trajectory. Skips blank lines and '#' comments. Throws pslam::Error naming file and line on
-/// a malformed line, a NaN/Inf value, a zero quaternion, or a file that cannot be opened. Quaternions are
-/// normalized. An empty file gives an empty trajectory.
-Trajectory readTumTrajectory(const std::filesystem::path& path);
+/// a malformed line, a NaN/Inf value, a zero quaternion, or a file that cannot be opened; with
+/// StampOrder::NonDecreasing also on a stamp before the previous one. Quaternions are normalized. An empty
+/// file gives an empty trajectory.
+Trajectory readTumTrajectory(const std::filesystem::path& path, StampOrder order = StampOrder::Any);
+
+/// The message of a stamp that goes back in time: "<file>:<line>: timestamp <t> is before the previous one
+/// (line <l>)".
+std::string stampOrderError(const std::filesystem::path& path, int line, double stamp, int previousLine);
+
+/// "" if every stamp is after the previous one, else a one-line note naming `path`, the number of stamps equal to
+/// the previous one and the first of them. Published ground truth has some (TUM fr2/desk); readers keep them.
+std::string duplicateStampNote(const Trajectory& trajectory, const std::filesystem::path& path);
 
 /// Writes a TUM trajectory atomically (temporary file + rename), timestamps with 6 decimals, poses with 9
 /// significant digits.

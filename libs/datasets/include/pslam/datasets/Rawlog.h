@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <mrpt/img/TCamera.h>
 #include <mrpt/poses/CPose3D.h>
@@ -55,11 +56,16 @@ cv::Vec3b encodeNormal(const cv::Vec3d& n);
 bool decodeNormal(const cv::Vec3b& px, cv::Vec3d& n);
 
 /// Writes frames to `<path>` and their images to `<stem>_Images/`. Nothing appears under the final names
-/// until commit(): a writer destroyed without commit() removes its temporary files.
+/// until commit(): a writer destroyed without commit() removes its temporary files. An existing rawlog is
+/// replaced; an existing images folder only if it holds nothing but images this writer names
+/// (imagesFolderKind()), checked when the writer is made.
 class RawlogWriter {
  public:
   /// imageExtension: "png" (default, lossless) or "bmp"/"tiff"/"ppm" (lossless); "jpg" is refused.
-  explicit RawlogWriter(std::filesystem::path rawlogPath, std::string imageExtension = "png");
+  /// With `outputs`, the images folder and the rawlog are prepared in that set (so checked against its inputs
+  /// and committed with the tool's other outputs by OutputSet::commit()); commit() then only closes the file.
+  explicit RawlogWriter(std::filesystem::path rawlogPath, std::string imageExtension = "png",
+                        OutputSet* outputs = nullptr);
   ~RawlogWriter();
   RawlogWriter(const RawlogWriter&) = delete;
   RawlogWriter& operator=(const RawlogWriter&) = delete;
@@ -72,6 +78,10 @@ class RawlogWriter {
 
   /// `<dir>/<stem>_Images` for a rawlog path.
   static std::filesystem::path imagesDirFor(const std::filesystem::path& rawlogPath);
+  /// The images folder as an output: the files `<LABEL>_<frame>.<ext>` this writer names.
+  static OutputKind imagesFolderKind();
+  /// A rawlog and its images folder: what a tool that reads the rawlog lists as its inputs.
+  static std::vector<std::filesystem::path> inputFilesOf(const std::filesystem::path& rawlogPath);
 
  private:
   struct Impl;
@@ -79,10 +89,12 @@ class RawlogWriter {
   std::size_t frames_ = 0;
 };
 
-/// Streams frames from a rawlog that follows the contract. Images are loaded one frame at a time.
+/// Streams frames from a rawlog that follows the contract. Images are loaded one frame at a time. The gzip
+/// stream is verified to its end (pslam::GzipInputStream): corrupt or cut data is an error naming the file and
+/// the frame, never the end of the rawlog.
 class RawlogReader {
  public:
-  /// Throws pslam::Error if the file is missing or is not an MRPT rawlog.
+  /// Throws pslam::Error if the file is missing or cannot be opened.
   explicit RawlogReader(std::filesystem::path rawlogPath);
   ~RawlogReader();
   RawlogReader(const RawlogReader&) = delete;
@@ -94,10 +106,11 @@ class RawlogReader {
   const std::filesystem::path& path() const;
   const std::filesystem::path& imagesDir() const;
 
-  /// Counts the frames (reads the whole archive without loading the images).
+  /// Counts the frames (reads and verifies the whole archive without loading the images).
   static std::size_t countFrames(const std::filesystem::path& rawlogPath);
 
  private:
+  bool readFrame(Frame& frame);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -2,7 +2,10 @@
 // Trajectory readers for the formats evaluated by slam-eval: TUM (`t tx ty tz qx qy qz qw`), KITTI odometry
 // (12 numbers per line: the row-major 3x4 [R|t] of T_world_cam, no timestamps; optional times file with one
 // time per line) and EuRoC/ASL csv (`timestamp_ns, px, py, pz, qw, qx, qy, qz, ...`). All give camera- (or
-// body-) to-world poses as pslam::Trajectory.
+// body-) to-world poses as pslam::Trajectory. Stamps must be in time order: a stamp before the previous one is
+// an error naming the file and line (of the times file for KITTI). A stamp equal to the previous one is kept, as
+// evo keeps it (published ground truth has some, e.g. TUM fr2/desk); slam-eval reports them
+// (pslam::duplicateStampNote).
 #include <filesystem>
 #include <string>
 

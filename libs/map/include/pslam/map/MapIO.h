@@ -30,7 +30,10 @@ class CSlamMapArchive : public mrpt::serialization::CSerializable {
 void saveMap(const Map& map, const std::filesystem::path& path);
 
 /// Reads a map written by saveMap(). Throws pslam::Error naming the file when it is missing, not a
-/// .slammap, truncated, corrupt, of an unsupported version, or its content violates the map invariants.
+/// .slammap, truncated, corrupt (the gzip stream is verified to its end: CRC-32 and length), of an unsupported
+/// version, or its content is invalid: every count, id, flag and index is checked (flags are 0 or 1, ids below
+/// the map's next ids, keypoints within one image size around their keyframe's image, values finite) and the
+/// whole map must satisfy the map invariants.
 Map loadMap(const std::filesystem::path& path);
 
 }  // namespace pslam::map

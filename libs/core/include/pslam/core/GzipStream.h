@@ -1,0 +1,63 @@
+#pragma once
+// Verified reading of gzip-compressed MRPT archives (rawlogs, maps). MRPT's CFileGZInputStream takes every
+// zlib error for the end of the file, so a corrupt or cut file reads as a shorter valid one, and never checks
+// the gzip trailer. This stream reads through zlib directly and reports every error instead: corrupt deflate
+// data, a CRC-32 or length mismatch in the trailer, data that ends before the trailer. It streams (a 128 KiB
+// buffer), so rawlogs of any size are read in constant memory.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include <mrpt/io/CStream.h>
+
+namespace pslam {
+
+class GzipInputStream : public mrpt::io::CStream {
+ public:
+  /// Opens `path`: gzip, or an uncompressed file, which is read as it is (MRPT also reads plain archives;
+  /// compressed() tells). Throws pslam::Error naming the file if it is missing or cannot be opened.
+  explicit GzipInputStream(std::filesystem::path path);
+  ~GzipInputStream() override;
+  GzipInputStream(const GzipInputStream&) = delete;
+  GzipInputStream& operator=(const GzipInputStream&) = delete;
+
+  /// Reads up to `count` bytes; fewer only at the verified end of the data (for gzip: the CRC-32 and the length
+  /// in the trailer match what was read). On any zlib or I/O error, throws pslam::Error
+  /// "<file>: <reason>" and keeps the reason in failure(); later reads throw it again.
+  size_t Read(void* buffer, size_t count) override;
+  size_t Write(const void* buffer, size_t count) override;  ///< throws: the stream is read-only
+  uint64_t Seek(int64_t offset, TSeekOrigin origin = sFromBeginning) override;  ///< throws: not seekable
+  uint64_t getTotalBytesCount() const override;  ///< size of the file on disk
+  uint64_t getPosition() const override;         ///< (uncompressed) bytes delivered so far
+  std::string getStreamDescription() const override;
+
+  const std::filesystem::path& path() const { return path_; }
+  bool compressed() const { return compressed_; }
+  /// True once a read stopped at the verified end of the data.
+  bool atEnd() const { return atEnd_; }
+  /// Why a read failed, without the file name ("" if none), e.g. "corrupt gzip data (zlib: incorrect data
+  /// check, found at compressed byte 812)". MRPT's archive turns exceptions thrown while an object is read into
+  /// its own end-of-file exception, so callers look here first.
+  const std::string& failure() const { return failure_; }
+  /// Requires the verified end of the data now (e.g. after the one object of a map file): throws pslam::Error
+  /// if more data follows, or if the end is corrupt.
+  void requireEnd();
+
+ private:
+  [[noreturn]] void fail();
+  std::filesystem::path path_;
+  void* file_ = nullptr;  // gzFile
+  bool compressed_ = true;
+  bool atEnd_ = false;
+  std::uint64_t position_ = 0;
+  std::uint64_t fileSize_ = 0;
+  std::string failure_;
+};
+
+/// Reads `path` once to its end and verifies it (no-op for an uncompressed file): throws pslam::Error
+/// "<file>: <reason>" (as GzipInputStream::Read) on any error. Readers call it before they interpret any data,
+/// so that data a corrupt gzip stream would deliver before its CRC-32 is checked at the end (garbage sizes and
+/// counts) never reaches a deserializer. Streams with a fixed buffer; costs one decompression of the file.
+void verifyGzipFile(const std::filesystem::path& path);
+
+}  // namespace pslam
