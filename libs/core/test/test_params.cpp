@@ -542,3 +542,14 @@ TEST(Params, RangeBoundsReadAsWritten) {
   EXPECT_EQ(params::inLeftOpen(0, 0.5).text(), "must be in (0, 0.5]");
   EXPECT_EQ(params::finite().text(), "must be finite");
 }
+
+TEST(Params, CommandLineOptionOfAKeyUsesItsParsingAndRule) {
+  const auto count = params::cliCheckKey<demo::Demo>("count");
+  EXPECT_EQ(count("50"), "");
+  EXPECT_EQ(count("2000.7"), "2000.7: not an integer");
+  EXPECT_EQ(count("2000000000"), "2000000000: must be in [3, 100]");
+  EXPECT_EQ(params::cliCheckKey<demo::Demo>("sigma")("nan"), "nan: not a number");
+  EXPECT_EQ(params::cliCheckKey<demo::Demo>("keyFrames.ratio")("1.5"), "1.5: must be in (0, 1]");
+  EXPECT_EQ(params::cliCheckKey<demo::Demo>("minThreshold")("11"), "11: must be in (0, count]");  // count = 10
+  EXPECT_THROW(params::cliCheckKey<demo::Demo>("nope")("1"), std::logic_error);
+}

@@ -395,6 +395,28 @@ class Checker : public Visitor<Checker> {
   const std::string& section_;
 };
 
+/// Parses a text as the value of one key and applies the key's rule (cliCheckKey).
+class KeyChecker : public Visitor<KeyChecker> {
+ public:
+  KeyChecker(const std::string& target, const std::string& text) : target_(target), text_(text) {}
+  template <class T, class R>
+  void field(const char* name, T& value, const R& rule, const char*) {
+    if (key(name) != target_) return;
+    found_ = true;
+    T parsed = value;
+    if (auto why = Codec<T>::parse(text_, parsed)) reason_ = *why;
+    else if (auto bad = rule(parsed)) reason_ = *bad;
+  }
+  bool found() const { return found_; }
+  const std::optional<std::string>& reason() const { return reason_; }
+
+ private:
+  const std::string& target_;
+  const std::string& text_;
+  bool found_ = false;
+  std::optional<std::string> reason_;
+};
+
 // visitFields() is one non-const template for every visitor; saving and checking only read the fields.
 template <class P>
 P& mutableRef(const P& p) {
@@ -593,6 +615,20 @@ std::function<std::string(const std::string&)> cliCheck(R rule = anyValue) {
     if (auto why = Codec<T>::parse(text, v)) return text + ": " + *why;
     if (auto why = rule(v)) return text + ": " + *why;
     return "";
+  };
+}
+
+/// The check of a command-line option that sets the key `key` of a P: that key's parsing and rule (the other
+/// fields at their defaults, for rules that read them), so the option and the ini key cannot disagree; "" or
+/// `<text>: <reason>`. A key P does not have is a programming error (std::logic_error when the check runs).
+template <class P>
+std::function<std::string(const std::string&)> cliCheckKey(std::string key) {
+  return [key](const std::string& text) -> std::string {
+    P p{};
+    detail::KeyChecker c(key, text);
+    p.visitFields(c);
+    if (!c.found()) throw std::logic_error("cliCheckKey: no parameter key '" + key + "'");
+    return c.reason() ? text + ": " + *c.reason() : "";
   };
 }
 
