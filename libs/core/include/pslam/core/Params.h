@@ -276,6 +276,23 @@ Satisfies<F> satisfies(F pred, std::string reason) {
   return {std::move(pred), std::move(reason)};
 }
 
+/// A rule with its own reasons: `check(v)` returns the reason `v` is invalid (nullopt = valid); `text` describes
+/// the rule (describe()). For values whose checks have several reasons (a list: its length and its numbers).
+template <class F>
+struct Custom {
+  F check;
+  std::string description;
+  template <class T>
+  std::optional<std::string> operator()(const T& v) const {
+    return check(v);
+  }
+  std::string text() const { return description; }
+};
+template <class F>
+Custom<F> custom(F check, std::string description) {
+  return {std::move(check), std::move(description)};
+}
+
 /// A string among `names` (exact).
 struct OneOf {
   std::vector<std::string> names;
