@@ -128,7 +128,7 @@ TEST(SynthOptions, ConfigFileIsReadStrictly) {
   EXPECT_EQ(errorFor("[synth]\nnoise_sigma = nan\n"), "F: [synth] noise_sigma = nan: not a number");
   EXPECT_EQ(errorFor("[synth]\nscenario = moon\n"),
             "F: [synth] scenario = moon: must be one of room, lowtexture, street, corridor, jam, jam-static");
-  EXPECT_EQ(errorFor("[synth]\nnoise = 1\n"), "F: [synth] noise: unknown key (did you mean name?)");
+  EXPECT_EQ(errorFor("[synth]\nnoise = 1\n"), "F: [synth] noise: unknown key (did you mean noise_sigma?)");
   EXPECT_EQ(errorFor("[Synth]\nframes = 5\n"), "F: [Synth]: unknown section (did you mean synth?)");
   EXPECT_EQ(errorFor("frames = 5\n"),
             "F:1: frames: key outside any section (the file needs a [Section] header before it)");

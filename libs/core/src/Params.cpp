@@ -100,6 +100,13 @@ std::string valueText(const std::string& raw) {
 }
 
 std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  // A key the word begins (a shortened key: distortion -> distortion_model) before the nearest by edit distance.
+  std::string prefixed;
+  for (const auto& c : candidates)
+    if (c.size() > word.size() && !word.empty() && equalsIgnoreCase(c.substr(0, word.size()), word) &&
+        (prefixed.empty() || c.size() < prefixed.size()))
+      prefixed = c;
+  if (!prefixed.empty()) return prefixed;
   std::string best;
   int bestDistance = std::numeric_limits<int>::max();
   for (const auto& c : candidates) {
@@ -460,7 +467,7 @@ void loadConfigFile(const std::string& path, const std::vector<std::string>& sec
   }
   applyOverrides(*cfg, overrides);
   withSource(path, overrides, [&] {
-    requireKnownSections(*cfg, sections);
+    if (!sections.empty()) requireKnownSections(*cfg, sections);
     load(*cfg);
   });
 }

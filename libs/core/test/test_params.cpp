@@ -374,6 +374,12 @@ TEST(Params, ReadConfigTextNamesAMissingFile) {
   std::filesystem::remove(path);
 }
 
+TEST(Params, ClosestPrefersAKeyTheWordBegins) {
+  EXPECT_EQ(params::closest("distortion", {"resolution", "fx", "distortion_model"}), "distortion_model");
+  EXPECT_EQ(params::closest("noise", {"name", "noise_sigma", "noise_sigma_extra"}), "noise_sigma");
+  EXPECT_EQ(params::closest("Noise", {"name", "noise_sigma"}), "noise_sigma");
+}
+
 TEST(Params, ClosestPrefersCaseOnlyDifferences) {
   EXPECT_EQ(params::closest("maxLocalKeyframes", {"maxLocalKeyFrames", "minLocalMapInliers", "localMapRatio"}),
             "maxLocalKeyFrames");

@@ -585,7 +585,8 @@ void withSource(const std::string& path, const std::vector<std::string>& overrid
 void checkIniSyntax(const std::string& text, const std::string& source);
 
 /// The one way a tool reads an ini file: its text (readConfigText: missing file, syntax), `overrides` applied,
-/// sections other than `sections` rejected (naming the closest), then `load(cfg)`. Every error is one line that
+/// sections other than `sections` rejected (naming the closest; empty `sections`: any, for files of several
+/// blocks of which the caller picks one, as camera ini files), then `load(cfg)`. Every error is one line that
 /// names the file, or the override that set the failing key (withSource).
 void loadConfigFile(const std::string& path, const std::vector<std::string>& sections,
                     const std::function<void(const mrpt::config::CConfigFileBase&)>& load,
