@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/system/System.h"
@@ -20,9 +21,10 @@ int main(int argc, char** argv) {
   cli.add_option("--config", config, "MRPT ini (config/slam/*.ini)")->required();
   cli.add_option("--set", overrides, "override one ini value, Section.key=value (repeatable)");
   cli.add_option("--rawlog", rawlog, "input rawlog")->required();
-  cli.add_option("--first", first, "first frame")->check(CLI::NonNegativeNumber);
-  cli.add_option("--last", last, "last frame (inclusive)");
-  cli.add_option("--seed", seed, "seed");
+  using pslam::params::cliCheck;
+  cli.add_option("--first", first, "first frame")->check(cliCheck<long long>(pslam::params::atLeast(0)));
+  cli.add_option("--last", last, "last frame (inclusive)")->check(cliCheck<long long>());
+  cli.add_option("--seed", seed, "seed")->check(cliCheck<unsigned>());
   CLI11_PARSE(cli, argc, argv);
   try {
     using namespace pslam;

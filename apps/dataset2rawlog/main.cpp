@@ -7,11 +7,14 @@
 #include <CLI/CLI.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/datasets/Dataset2RawlogApp.h"
 
 int main(int argc, char** argv) {
   using pslam::datasets::Dataset2RawlogOptions;
   Dataset2RawlogOptions opt;
+  // Command-line values: the parsing and rule of the option's key (Dataset2RawlogOptions::visitFields).
+  const auto key = [](const char* k) { return pslam::params::cliCheckKey<Dataset2RawlogOptions>(k); };
   std::string intrinsics, distortion;
   bool quiet = false;
 
@@ -25,31 +28,41 @@ int main(int argc, char** argv) {
       "Details: doc/datasets.md"};
   app.add_option("input", opt.input, "Dataset folder")->required();
   app.add_option("-o,--out-dir", opt.outDir, "Output folder")->required();
-  app.add_option("--name", opt.name, "Output base name (default: sequence folder name, kitti_<seq> for KITTI)");
-  app.add_option("--format", opt.format, "auto|tum|icl|kitti|euroc|folder")->capture_default_str();
-  app.add_option("--first", opt.first, "First frame to convert (0-based)")->capture_default_str();
-  app.add_option("--last", opt.last, "Last frame to convert (inclusive)");
+  app.add_option("--name", opt.name, "Output base name (default: sequence folder name, kitti_<seq> for KITTI)")
+      ->check(key("name"));
+  app.add_option("--format", opt.format, "auto|tum|icl|kitti|euroc|folder")->check(key("format"))->capture_default_str();
+  app.add_option("--first", opt.first, "First frame to convert (0-based)")->check(key("first"))->capture_default_str();
+  app.add_option("--last", opt.last, "Last frame to convert (inclusive)")->check(key("last"));
   app.add_option("--count", opt.count, "Convert at most this many frames (after --stride; 0 = all)")
-      ->capture_default_str();
-  app.add_option("--stride", opt.stride, "Keep every n-th frame")->capture_default_str();
-  app.add_option("--color", opt.color, "keep|grey|colour: CAMERA image colour")->capture_default_str();
+      ->check(key("count"))->capture_default_str();
+  app.add_option("--stride", opt.stride, "Keep every n-th frame")->check(key("stride"))->capture_default_str();
+  app.add_option("--color", opt.color, "keep|grey|colour: CAMERA image colour")->check(key("color"))->capture_default_str();
   app.add_option("--image-format", opt.imageFormat, "Lossless image format: png|bmp|tiff|ppm|pgm")
+      ->check(key("image_format"))
       ->capture_default_str();
   app.add_option("--camera-ini", opt.cameraIni,
                  "MRPT TCamera ini file (e.g. config/cameras/kitti_00-02.ini); overrides the dataset's intrinsics");
   app.add_option("--camera-section", opt.cameraSection, "Section of --camera-ini")->capture_default_str();
   app.add_option("--intrinsics", intrinsics, "fx,fy,cx,cy (resolution from the first image)");
   app.add_option("--distortion", distortion, "k1,k2,p1,p2[,k3] (plumb_bob) with --intrinsics");
-  app.add_option("--tum-camera", opt.tumCamera, "fr1|fr2|fr3 TUM calibration (default: from the folder name)");
+  app.add_option("--tum-camera", opt.tumCamera, "fr1|fr2|fr3 TUM calibration (default: from the folder name)")
+      ->check(key("tum_camera"));
   app.add_option("--rate", opt.rate,
-                 "Frame rate in Hz: KITTI without times.txt, ICL-NUIM (default 30), image folder (required)");
-  app.add_option("--first-stamp", opt.firstStamp, "Timestamp of the first image, seconds (image folder)");
+                 "Frame rate in Hz: KITTI without times.txt, ICL-NUIM (default 30), image folder (required)")
+      ->check(key("rate"));
+  app.add_option("--first-stamp", opt.firstStamp, "Timestamp of the first image, seconds (image folder)")
+      ->check(key("first_stamp"));
   app.add_option("--max-depth-diff", opt.maxDepthDiff, "TUM RGB/depth association window in s (associate.py)")
+      ->check(key("max_depth_diff"))
       ->capture_default_str();
-  app.add_option("--gt-max-gap", opt.gtMaxGap, "Do not interpolate ground truth across holes longer than this (s)");
+  app.add_option("--gt-max-gap", opt.gtMaxGap, "Do not interpolate ground truth across holes longer than this (s)")
+      ->check(key("gt_max_gap"));
   app.add_flag("--no-depth", opt.noDepth, "Do not write DEPTH observations");
-  app.add_option("--euroc-camera", opt.eurocCamera, "EuRoC camera folder (cam0 or cam1)")->capture_default_str();
-  app.add_option("--kitti-camera", opt.kittiCamera, "KITTI camera: 0 (image_0, grey) or 2 (image_2, colour)");
+  app.add_option("--euroc-camera", opt.eurocCamera, "EuRoC camera folder (cam0 or cam1)")
+      ->check(key("euroc_camera"))
+      ->capture_default_str();
+  app.add_option("--kitti-camera", opt.kittiCamera, "KITTI camera: 0 (image_0, grey) or 2 (image_2, colour)")
+      ->check(key("kitti_camera"));
   app.add_option("--poses", opt.posesFile,
                  "Ground-truth file: KITTI poses (3x4 per line), ICL *.gt.freiburg, or TUM file for a folder (one "
                  "pose per image)");

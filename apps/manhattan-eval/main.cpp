@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pslam/core/Params.h"
 #include "pslam/manhattan/ManhattanEvalApp.h"
 
 int main(int argc, char** argv) {
@@ -23,11 +24,18 @@ int main(int argc, char** argv) {
   app.add_option("--config", opt.config, "ini with [ManhattanTracker], [NormalsFromDepth], [NormalsFromNetwork]");
   app.add_option("--reference-config", opt.referenceConfig, "ini for the reference source (default: --config)");
   app.add_option("--plot", opt.outputPlot, "Write a PNG of the per-frame rotation error");
+  // Command-line numbers: the ini's strict parsing and a rule (params::cliCheck).
+  using pslam::params::cliCheck;
   app.add_option("--reference-frame", opt.referenceFrame,
                  "Rotation errors relative to the first evaluated frame with index >= this")
+      ->check(cliCheck<std::size_t>())
       ->capture_default_str();
-  app.add_option("--normal-stride", opt.normalStride, "Pixel stride when collecting normals")->capture_default_str();
-  app.add_option("--max-gt-dt", opt.maxGroundTruthDt, "Ground-truth association window (s)")->capture_default_str();
+  app.add_option("--normal-stride", opt.normalStride, "Pixel stride when collecting normals")
+      ->check(cliCheck<int>(pslam::params::atLeast(1)))
+      ->capture_default_str();
+  app.add_option("--max-gt-dt", opt.maxGroundTruthDt, "Ground-truth association window (s)")
+      ->check(cliCheck<double>(pslam::params::atLeast(0)))
+      ->capture_default_str();
   app.add_option("--json", opt.outputJson, "Write the full report (config, per-frame, summary) as JSON");
   app.add_option("--text", opt.outputText, "Write the summary table to this file");
   app.add_flag("-q,--quiet", quiet, "No progress and no table on stdout");

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/eval/Plot.h"
 #include "pslam/priors/SemanticImage.h"
@@ -27,8 +28,12 @@ int main(int argc, char** argv) {
   cli.add_option("--network", network, "network ini")->required();
   cli.add_option("images", images, "image files");
   cli.add_option("--images-dir", imagesDir, "folder of images (sorted by name)");
-  cli.add_option("--max-images", maxImages, "images from --images-dir")->capture_default_str();
-  cli.add_option("--warmup", warmup, "untimed runs on the first image")->capture_default_str();
+  cli.add_option("--max-images", maxImages, "images from --images-dir")
+      ->check(pslam::params::cliCheck<std::size_t>(pslam::params::atLeast(1)))
+      ->capture_default_str();
+  cli.add_option("--warmup", warmup, "untimed runs on the first image")
+      ->check(pslam::params::cliCheck<std::size_t>())
+      ->capture_default_str();
   cli.add_option("--overlay", overlayPath, "PNG: overlay of the first image");
   cli.add_option("--histogram-plot", histPath, "PNG: class histogram over all images");
   CLI11_PARSE(cli, argc, argv);

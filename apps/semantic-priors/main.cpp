@@ -5,6 +5,7 @@
 #include <exception>
 #include <iostream>
 
+#include "pslam/core/Params.h"
 #include "pslam/priors/SemanticPriorsApp.h"
 
 int main(int argc, char** argv) {
@@ -20,8 +21,12 @@ int main(int argc, char** argv) {
   cli.add_option("--class-map", classMap, "class-map ini for --labels (default: Cityscapes trainIds, Table 3.1)");
   cli.add_option("--network", network, "network ini, e.g. config/semantic/enet_cityscapes_kitti.ini");
   cli.add_option("--overlay-dir", overlays, "write colour overlay PNGs (green static, red dynamic, blue invalid)");
-  cli.add_option("--overlay-every", o.overlayEvery, "overlay every n-th frame")->capture_default_str();
-  cli.add_option("--max-frames", o.maxFrames, "process only the first N frames (0 = all)")->capture_default_str();
+  cli.add_option("--overlay-every", o.overlayEvery, "overlay every n-th frame")
+      ->check(pslam::params::cliCheck<std::size_t>(pslam::params::atLeast(1)))
+      ->capture_default_str();
+  cli.add_option("--max-frames", o.maxFrames, "process only the first N frames (0 = all)")
+      ->check(pslam::params::cliCheck<std::size_t>())
+      ->capture_default_str();
   cli.add_flag("--quiet", quiet, "no progress output");
   CLI11_PARSE(cli, argc, argv);
   try {

@@ -25,10 +25,17 @@ int main(int argc, char** argv) {
   ActivationScenario base;
   cli.add_option("--out", out, "PNG of the inlier ratio over observations")->capture_default_str();
   cli.add_option("--out-beta", outBeta, "PNG of the Beta posteriors of the dynamic-prior point (optional)");
-  cli.add_option("--seed", seed, "seed of the measurement noise")->capture_default_str();
-  cli.add_option("--observations", base.observations, "observations per point")->capture_default_str();
-  cli.add_option("--alpha", base.alpha, "matching accuracy of every observation")->capture_default_str();
-  cli.add_option("--tau", base.measurementStd, "measurement std-dev (inverse depth)")->capture_default_str();
+  using pslam::params::cliCheck;
+  cli.add_option("--seed", seed, "seed of the measurement noise")->check(cliCheck<unsigned>())->capture_default_str();
+  cli.add_option("--observations", base.observations, "observations per point")
+      ->check(cliCheck<int>(pslam::params::inClosed(1, 100000)))
+      ->capture_default_str();
+  cli.add_option("--alpha", base.alpha, "matching accuracy of every observation")
+      ->check(cliCheck<double>(pslam::params::inClosed(0, 1)))
+      ->capture_default_str();
+  cli.add_option("--tau", base.measurementStd, "measurement std-dev (inverse depth)")
+      ->check(cliCheck<double>(pslam::params::greaterThan(0)))
+      ->capture_default_str();
   CLI11_PARSE(cli, argc, argv);
   try {
     const KeypointModel model{KeypointModelParams{}};

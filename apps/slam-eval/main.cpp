@@ -4,13 +4,13 @@
 #include <exception>
 #include <iostream>
 
-#include <mrpt/config/CConfigFile.h>
-
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/eval/EvalApp.h"
 
 int main(int argc, char** argv) {
   using namespace pslam::eval;
+  using namespace pslam::params;  // cliCheck and its rules: the ini's strict parsing for command-line numbers
   CLI::App cli{"Trajectory evaluation: ATE, RPE, RE (thesis eq. 4.8) and DR (eq. 2.104), evo-compatible.\n"
                "Defaults are evo's (evo_ape / evo_rpe), except alignment: evo aligns only when asked, slam-eval\n"
                "aligns with Sim(3) (evo's -as) unless told otherwise, as monocular runs have no scale. The TUM\n"
@@ -33,18 +33,29 @@ int main(int argc, char** argv) {
   cli.add_option("--est-times", estTimes, "KITTI times file of the estimate");
   auto* oAssoc = cli.add_option("--association", assoc, "nearest (evo's rule, default) | tum (TUM associate.py: one-to-one greedy) | index (KITTI)")
                      ->capture_default_str();
-  auto* oMaxDiff = cli.add_option("--max-diff", maxDiff, "max. time difference for association [s]; default = evo's max_diff (TUM associate.py: 0.02)")->capture_default_str();
-  auto* oOffset = cli.add_option("--offset", offset, "time offset added to the estimate's stamps [s]")->capture_default_str();
+  auto* oMaxDiff = cli.add_option("--max-diff", maxDiff, "max. time difference for association [s]; default = evo's max_diff (TUM associate.py: 0.02)")
+                      ->check(cliCheck<double>(atLeast(0)))
+                      ->capture_default_str();
+  auto* oOffset = cli.add_option("--offset", offset, "time offset added to the estimate's stamps [s]")
+                     ->check(cliCheck<double>(finite()))
+                     ->capture_default_str();
   auto* oAlign = cli.add_option("--align", align, "none|se3|sim3; default sim3 = evo's -as, for monocular runs (evo: none; TUM evaluate_ate.py: se3)")->capture_default_str();
-  auto* oFirst = cli.add_option("--align-first", alignFirst, "align on the first N pairs only (0 = all)");
-  auto* oDelta = cli.add_option("--delta", delta, "RPE delta (evo's default)")->capture_default_str();
+  auto* oFirst = cli.add_option("--align-first", alignFirst, "align on the first N pairs only (0 = all)")
+                    ->check(cliCheck<std::size_t>());
+  auto* oDelta = cli.add_option("--delta", delta, "RPE delta (evo's default)")
+                    ->check(cliCheck<double>(greaterThan(0)))
+                    ->capture_default_str();
   auto* oUnit = cli.add_option("--delta-unit", deltaUnit, "RPE delta unit: frames|m (evo's default frames)")->capture_default_str();
   auto* oAll = cli.add_flag("--all-pairs", allPairs, "RPE over all pairs with the delta, not consecutive ones");
-  auto* oTol = cli.add_option("--rel-tol", relTol, "RPE relative delta tolerance (metres, all pairs; evo's default)")->capture_default_str();
+  auto* oTol = cli.add_option("--rel-tol", relTol, "RPE relative delta tolerance (metres, all pairs; evo's default)")
+                  ->check(cliCheck<double>(atLeast(0)))
+                  ->capture_default_str();
   auto* oNoRpe = cli.add_flag("--no-rpe", noRpe, "skip RPE");
   cli.add_option("--depths", depthSamples, "map-point depths `timestamp u v depth` for DR");
   cli.add_option("--rawlog", depthRawlog, "rawlog whose DEPTH channel gives the GT depth for DR");
-  auto* oTau = cli.add_option("--tau", tau, "DR relative depth error threshold (thesis eq. 2.104, Tateno et al.)")->capture_default_str();
+  auto* oTau = cli.add_option("--tau", tau, "DR relative depth error threshold (thesis eq. 2.104, Tateno et al.)")
+                  ->check(cliCheck<double>(greaterThan(0)))
+                  ->capture_default_str();
   auto* oDrScale = cli.add_flag("--dr-scale", drScale, "scale estimated depths by the Sim(3) alignment scale");
   cli.add_option("--json", jsonPath, "write the results as JSON (atomic)");
   cli.add_option("--plot-dir", plotDir, "write PNG plots into this folder");
@@ -52,11 +63,8 @@ int main(int argc, char** argv) {
 
   try {
     EvalOptions o;
-    if (!configPath.empty()) {
-      if (!std::filesystem::exists(configPath)) throw pslam::Error(configPath + ": config file not found");
-      mrpt::config::CConfigFile cfg(configPath);
-      o.loadFromConfigFile(cfg, configSection);
-    }
+    // The file may hold only the one section (strict: unknown sections and keys are errors naming the file).
+    if (!configPath.empty()) pslam::params::loadSectionFromFile(o, configPath, configSection);
     o.gtFormat = parseTrajectoryFormat(gtFormat);
     o.estFormat = parseTrajectoryFormat(estFormat);
     o.gtTimes = gtTimes;

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include "pslam/apps/SlamRunApp.h"
+#include "pslam/core/Params.h"
 
 int main(int argc, char** argv) {
   CLI::App cli{"Monocular SLAM on a rawlog: trajectory.txt, keyframes.txt, map.slammap, depths.txt, report.json"};
@@ -16,9 +17,11 @@ int main(int argc, char** argv) {
                  "override one ini value, Section.key=value (repeatable), e.g. --set PointModel.model=probabilistic");
   cli.add_option("--rawlog", rawlog, "input rawlog (DESIGN.md §3)")->required();
   cli.add_option("--out", out, "output folder")->required();
-  cli.add_option("--seed", o.seed, "seed of all random processes (default 0)");
-  cli.add_option("--first", first, "first frame index (0-based)")->check(CLI::NonNegativeNumber);
-  cli.add_option("--last", o.last, "last frame index (inclusive; default: the end)");
+  using pslam::params::cliCheck;
+  cli.add_option("--seed", o.seed, "seed of all random processes (default 0)")->check(cliCheck<decltype(o.seed)>());
+  cli.add_option("--first", first, "first frame index (0-based)")
+      ->check(cliCheck<long long>(pslam::params::atLeast(0)));
+  cli.add_option("--last", o.last, "last frame index (inclusive; default: the end)")->check(cliCheck<long long>());
   cli.add_flag("--threaded", o.threaded, "local mapping in a second thread (not deterministic)");
   cli.add_flag("-q,--quiet", quiet, "no progress output");
   CLI11_PARSE(cli, argc, argv);

@@ -3,46 +3,57 @@
 #include <iostream>
 
 #include <CLI/CLI.hpp>
-#include <mrpt/config/CConfigFile.h>
-
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/synth/SynthApp.h"
 
 int main(int argc, char** argv) {
   try {
     pslam::synth::SynthOptions o;
+    // Command-line numbers: the parsing and rule of the [synth] key they set.
+    const auto key = [](const char* k) { return pslam::params::cliCheckKey<pslam::synth::SynthOptions>(k); };
     CLI::App cli{"Render a synthetic monocular sequence (image, depth, semantics, normals, class ids, ground truth)"};
     std::string config, texture = "on";
     std::string scenarioHelp = "scenario preset:";
     for (const auto& n : pslam::synth::scenarioNames()) scenarioHelp += " " + n;
     cli.add_option("--config", config, "MRPT ini file with a [synth] section (command-line options override it)");
     cli.add_option("--scenario", o.scenario, scenarioHelp)->capture_default_str();
-    cli.add_option("--frames", o.frames, "number of frames (0 = scenario default)")->capture_default_str();
-    cli.add_option("--width", o.width, "image width")->capture_default_str();
-    cli.add_option("--height", o.height, "image height")->capture_default_str();
-    cli.add_option("--fx", o.fx, "focal length x in pixels (0 = scenario default scaled to the width)");
-    cli.add_option("--fy", o.fy, "focal length y in pixels (0 = fx)");
-    cli.add_option("--cx", o.cx, "principal point x (negative = (width-1)/2)");
-    cli.add_option("--cy", o.cy, "principal point y (negative = (height-1)/2)");
-    cli.add_option("--seed", o.seed, "seed of textures, placements, traffic, jitter, noise")->capture_default_str();
+    cli.add_option("--frames", o.frames, "number of frames (0 = scenario default)")->check(key("frames"))->capture_default_str();
+    cli.add_option("--width", o.width, "image width")->check(key("width"))->capture_default_str();
+    cli.add_option("--height", o.height, "image height")->check(key("height"))->capture_default_str();
+    cli.add_option("--fx", o.fx, "focal length x in pixels (0 = scenario default scaled to the width)")->check(key("fx"));
+    cli.add_option("--fy", o.fy, "focal length y in pixels (0 = fx)")->check(key("fy"));
+    cli.add_option("--cx", o.cx, "principal point x (negative = (width-1)/2)")->check(key("cx"));
+    cli.add_option("--cy", o.cy, "principal point y (negative = (height-1)/2)")->check(key("cy"));
+    cli.add_option("--seed", o.seed, "seed of textures, placements, traffic, jitter, noise")
+        ->check(key("seed"))
+        ->capture_default_str();
     cli.add_option("--texture", texture, "on: procedural textures; off: white surfaces, shading only")
         ->check(CLI::IsMember({"on", "off"}))
         ->capture_default_str();
-    cli.add_option("--noise", o.noiseSigma, "Gaussian image noise std in grey levels")->capture_default_str();
+    cli.add_option("--noise", o.noiseSigma, "Gaussian image noise std in grey levels")
+        ->check(key("noise_sigma"))
+        ->capture_default_str();
     cli.add_flag("--exposure", o.exposure, "per-frame affine brightness change a*I+b (smooth, seeded)");
-    cli.add_option("--supersampling", o.supersampling, "N x N samples per pixel for anti-aliasing")->capture_default_str();
+    cli.add_option("--supersampling", o.supersampling, "N x N samples per pixel for anti-aliasing")
+        ->check(key("supersampling"))
+        ->capture_default_str();
     cli.add_option("--anti-aliasing", o.antiAliasing,
                    "silhouettes | adaptive (outlines + sharp texture edges) | full (every pixel, ~4x slower)")
         ->check(CLI::IsMember({"silhouettes", "adaptive", "full"}))
         ->capture_default_str();
     cli.add_option("--aa-contrast", o.aaContrast, "adaptive anti-aliasing: neighbour contrast (grey levels) that "
-                   "triggers texture supersampling")->capture_default_str();
+                   "triggers texture supersampling")
+        ->check(key("aa_contrast"))
+        ->capture_default_str();
     cli.add_option("--out", o.outDir, "output folder")->required();
     cli.add_option("--name", o.name, "file stem of the outputs (default: the scenario name)");
     cli.add_option("--preview", o.preview, "also write a PNG panel image|depth|normals|labels of one frame");
     cli.add_option("--preview-frame", o.previewFrame, "frame index shown in --preview (-1 = middle frame)")
+        ->check(key("preview_frame"))
         ->capture_default_str();
     cli.add_option("--threads", o.threads, "renderer threads (the output is identical for any count)")
+        ->check(key("threads"))
         ->capture_default_str();
     bool quiet = false;
     cli.add_flag("--quiet", quiet, "no progress line");
@@ -54,10 +65,8 @@ int main(int argc, char** argv) {
       return cli.exit(e);
     }
     if (!config.empty()) {
-      if (!std::filesystem::is_regular_file(config)) throw pslam::Error(config + ": config file not found");
       pslam::synth::SynthOptions fromFile;
-      mrpt::config::CConfigFile cfg(config);
-      fromFile.loadFromConfigFile(cfg, "synth");
+      pslam::params::loadSectionFromFile(fromFile, config, pslam::synth::SynthOptions::kSection);
       // Re-parse on top of the file values so that only options given on the command line override them.
       o = fromFile;
       texture = o.textured ? "on" : "off";

@@ -1,5 +1,6 @@
 #include "pslam/datasets/Dataset2RawlogApp.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,24 +21,6 @@ namespace fs = std::filesystem;
 namespace pslam::datasets {
 
 namespace {
-
-std::string joinNumbers(const std::vector<double>& v) {
-  std::ostringstream ss;
-  ss.precision(10);
-  for (std::size_t k = 0; k < v.size(); ++k) ss << (k ? "," : "") << v[k];
-  return ss.str();
-}
-
-std::size_t readSize(const mrpt::config::CConfigFileBase& cfg, const std::string& section, const std::string& key,
-                     std::size_t def) {
-  if (!cfg.keyExists(section, key)) return def;
-  const std::string text = cfg.read_string(section, key, "");
-  char* end = nullptr;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || v < 0)
-    throw Error("[" + section + "] " + key + ": '" + text + "' is not a non-negative integer");
-  return static_cast<std::size_t>(v);
-}
 
 ColorMode parseColor(const std::string& s) {
   if (s == "keep") return ColorMode::Keep;
@@ -66,86 +49,34 @@ std::vector<double> parseNumberList(const std::string& text, const std::string& 
 
 // ------------------------------------------------------------------------------------------------ options
 void Dataset2RawlogOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& s) {
-  input = cfg.read_string(s, "input", input.string());
-  outDir = cfg.read_string(s, "out_dir", outDir.string());
-  name = cfg.read_string(s, "name", name);
-  format = cfg.read_string(s, "format", format);
-  first = readSize(cfg, s, "first", first);
-  last = readSize(cfg, s, "last", last);
-  count = readSize(cfg, s, "count", count);
-  stride = readSize(cfg, s, "stride", stride);
-  color = cfg.read_string(s, "color", color);
-  imageFormat = cfg.read_string(s, "image_format", imageFormat);
-  cameraIni = cfg.read_string(s, "camera_ini", cameraIni.string());
-  cameraSection = cfg.read_string(s, "camera_section", cameraSection);
-  if (cfg.keyExists(s, "intrinsics")) intrinsics = parseNumberList(cfg.read_string(s, "intrinsics", ""), "[" + s + "] intrinsics");
-  if (cfg.keyExists(s, "distortion")) distortion = parseNumberList(cfg.read_string(s, "distortion", ""), "[" + s + "] distortion");
-  tumCamera = cfg.read_string(s, "tum_camera", tumCamera);
-  rate = cfg.read_double(s, "rate", rate);
-  firstStamp = cfg.read_double(s, "first_stamp", firstStamp);
-  maxDepthDiff = cfg.read_double(s, "max_depth_diff", maxDepthDiff);
-  gtMaxGap = cfg.read_double(s, "gt_max_gap", gtMaxGap);
-  noDepth = cfg.read_bool(s, "no_depth", noDepth);
-  kittiCamera = cfg.read_int(s, "kitti_camera", kittiCamera);
-  eurocCamera = cfg.read_string(s, "euroc_camera", eurocCamera);
-  posesFile = cfg.read_string(s, "poses", posesFile.string());
-  timesFile = cfg.read_string(s, "times", timesFile.string());
-  iclRawPoses = cfg.read_bool(s, "icl_raw_poses", iclRawPoses);
-  progress = cfg.read_bool(s, "progress", progress);
+  // The rules only: input and out_dir may still come from the command line.
+  params::load(*this, cfg, s);
 }
 
 void Dataset2RawlogOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& s) const {
-  cfg.write(s, "input", input.string());
-  cfg.write(s, "out_dir", outDir.string());
-  cfg.write(s, "name", name);
-  cfg.write(s, "format", format);
-  cfg.write(s, "first", static_cast<uint64_t>(first));
-  if (last != std::numeric_limits<std::size_t>::max()) cfg.write(s, "last", static_cast<uint64_t>(last));
-  cfg.write(s, "count", static_cast<uint64_t>(count));
-  cfg.write(s, "stride", static_cast<uint64_t>(stride));
-  cfg.write(s, "color", color);
-  cfg.write(s, "image_format", imageFormat);
-  cfg.write(s, "camera_ini", cameraIni.string());
-  cfg.write(s, "camera_section", cameraSection);
-  cfg.write(s, "intrinsics", joinNumbers(intrinsics));
-  cfg.write(s, "distortion", joinNumbers(distortion));
-  cfg.write(s, "tum_camera", tumCamera);
-  cfg.write(s, "rate", rate);
-  cfg.write(s, "first_stamp", firstStamp);
-  cfg.write(s, "max_depth_diff", maxDepthDiff);
-  cfg.write(s, "gt_max_gap", gtMaxGap);
-  cfg.write(s, "no_depth", noDepth);
-  cfg.write(s, "kitti_camera", kittiCamera);
-  cfg.write(s, "euroc_camera", eurocCamera);
-  cfg.write(s, "poses", posesFile.string());
-  cfg.write(s, "times", timesFile.string());
-  cfg.write(s, "icl_raw_poses", iclRawPoses);
-  cfg.write(s, "progress", progress);
+  params::save(*this, cfg, s);
 }
 
 void Dataset2RawlogOptions::check() const {
-  require(!input.empty(), "input", "no dataset folder given");
-  require(!outDir.empty(), "out_dir", "no output folder given");
-  if (format != "auto") parseFormatName(format);
-  require(stride >= 1, "stride", "must be at least 1");
-  require(last >= first, "last", "must not be before first");
-  parseColor(color);
-  require(imageFormat == "png" || imageFormat == "bmp" || imageFormat == "tiff" || imageFormat == "ppm" ||
-              imageFormat == "pgm",
-          "image_format", "'" + imageFormat + "' is not a lossless format (png, bmp, tiff, ppm, pgm)");
-  require(intrinsics.empty() || intrinsics.size() == 4, "intrinsics", "expected 4 values fx,fy,cx,cy");
-  require(distortion.empty() || !intrinsics.empty(), "distortion", "only valid together with intrinsics");
-  require(distortion.size() <= 5, "distortion", "at most 5 values k1,k2,p1,p2,k3");
-  require(intrinsics.empty() || cameraIni.empty(), "intrinsics", "give either camera_ini or intrinsics, not both");
-  require(tumCamera.empty() || tumCamera == "fr1" || tumCamera == "fr2" || tumCamera == "fr3", "tum_camera",
-          "'" + tumCamera + "' is not fr1, fr2 or fr3");
-  require(std::isfinite(rate) && rate >= 0, "rate", "must be a non-negative frame rate in Hz");
-  require(std::isfinite(firstStamp), "first_stamp", "must be finite");
-  require(std::isfinite(maxDepthDiff) && maxDepthDiff > 0, "max_depth_diff", "must be positive (seconds)");
-  require(std::isfinite(gtMaxGap) && gtMaxGap >= 0, "gt_max_gap", "must be >= 0 (seconds, 0 = no limit)");
-  require(kittiCamera == -1 || kittiCamera == 0 || kittiCamera == 2, "kitti_camera", "must be 0, 2 or -1 (auto)");
-  require(name.find('/') == std::string::npos, "name", "must be a base name, not a path");
-  require(eurocCamera == "cam0" || eurocCamera == "cam1", "euroc_camera", "must be cam0 or cam1");
+  params::check(*this, kSection);
+  if (input.empty()) throw params::ParamError(kSection, "input", "", "no dataset folder given");
+  if (outDir.empty()) throw params::ParamError(kSection, "out_dir", "", "no output folder given");
+}
+
+std::optional<std::string> Dataset2RawlogOptions::intrinsicsProblem(const std::vector<double>& k) const {
+  if (k.empty()) return std::nullopt;
+  if (k.size() != 4) return "expected 4 values fx,fy,cx,cy";
+  if (!std::all_of(k.begin(), k.end(), [](double x) { return std::isfinite(x); })) return "values must be finite";
+  if (!cameraIni.empty()) return "give either camera_ini or intrinsics, not both";
+  return std::nullopt;
+}
+
+std::optional<std::string> Dataset2RawlogOptions::distortionProblem(const std::vector<double>& d) const {
+  if (d.empty()) return std::nullopt;
+  if (intrinsics.empty()) return "only valid together with intrinsics";
+  if (d.size() > 5) return "at most 5 values k1,k2,p1,p2,k3";
+  if (!std::all_of(d.begin(), d.end(), [](double x) { return std::isfinite(x); })) return "values must be finite";
+  return std::nullopt;
 }
 
 // ------------------------------------------------------------------------------------------------ summary

@@ -10,11 +10,11 @@
 #include <sstream>
 
 #include <Eigen/Geometry>
-#include <mrpt/config/CConfigFile.h>
 #include <mrpt/config/CConfigFileMemory.h>
 
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/core/Progress.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/core/Trajectory.h"
@@ -42,25 +42,33 @@ double median(std::vector<double> v) { return percentile(std::move(v), 50.0); }
 
 }  // namespace
 
+ManhattanEvalConfig ManhattanEvalConfig::loadFromFile(const fs::path& path) {
+  ManhattanEvalConfig c;
+  if (path.empty()) return c;
+  params::loadSectionsFromFile(c, path.string());
+  c.normals.resolvePaths(path);
+  return c;
+}
+
 ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
+  params::checkOption("--normal-stride", o.normalStride, params::atLeast(1));
+  params::checkOption("--max-gt-dt", o.maxGroundTruthDt, params::atLeast(0));
   require(!o.rawlog.empty(), "manhattan-eval", "an input rawlog is required");
   require(fs::is_regular_file(o.rawlog), o.rawlog.string(), "rawlog not found");
-  require(o.normalStride >= 1, "manhattan-eval", "normal stride must be >= 1");
-  ManhattanParams params;
-  if (!o.config.empty()) {
-    require(fs::is_regular_file(o.config), o.config.string(), "config file not found");
-    mrpt::config::CConfigFile cfg(o.config.string());
-    try {
-      params.loadFromConfigFile(cfg, kTrackerSection);
-    } catch (const Error& e) {
-      throw Error(o.config.string() + ": " + e.what());
-    }
-  }
-  auto normalSource = priors::makeNormalSource(o.normals, o.config);
+  const ManhattanEvalConfig ini = ManhattanEvalConfig::loadFromFile(o.config);
+  const ManhattanParams& params = ini.tracker;
+  const auto sourceFrom = [](const std::string& kind, const ManhattanEvalConfig& c, const fs::path& path) {
+    if (kind == "network" && c.normals.network.model.empty() && !path.empty())
+      throw Error(path.string() + ": [" + priors::kNetworkNormalsSection +
+                  "] model: missing (the network normal source needs it)");
+    return priors::makeNormalSource(kind, c.normals);
+  };
+  auto normalSource = sourceFrom(o.normals, ini, o.config);
   std::unique_ptr<priors::NormalSource> referenceSource;
-  if (!o.referenceNormals.empty())
-    referenceSource =
-        priors::makeNormalSource(o.referenceNormals, o.referenceConfig.empty() ? o.config : o.referenceConfig);
+  if (!o.referenceNormals.empty()) {
+    const fs::path refPath = o.referenceConfig.empty() ? o.config : o.referenceConfig;
+    referenceSource = sourceFrom(o.referenceNormals, ManhattanEvalConfig::loadFromFile(refPath), refPath);
+  }
 
   fs::path gtPath = o.groundTruth;
   if (gtPath.empty()) gtPath = o.rawlog.parent_path() / (o.rawlog.stem().string() + "_groundtruth.txt");

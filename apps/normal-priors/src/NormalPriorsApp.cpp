@@ -8,6 +8,7 @@
 
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/core/Progress.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/priors/NormalSource.h"
@@ -26,12 +27,24 @@ fs::path groundTruthFor(const fs::path& rawlog) {
 }
 }  // namespace
 
+NormalPriorsConfig NormalPriorsConfig::loadFromFile(const fs::path& path) {
+  NormalPriorsConfig c;
+  if (path.empty()) return c;
+  params::loadSectionsFromFile(c, path.string());
+  c.normals.resolvePaths(path);
+  return c;
+}
+
 NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
   require(!o.input.empty() && !o.output.empty(), "normal-priors", "input and output rawlogs are required");
   require(fs::is_regular_file(o.input), o.input.string(), "input rawlog not found");
   require(fs::weakly_canonical(o.input) != fs::weakly_canonical(o.output), o.output.string(),
           "output must differ from the input rawlog");
-  auto source = makeNormalSource(o.source, o.config);
+  const NormalPriorsConfig config = NormalPriorsConfig::loadFromFile(o.config);
+  if (o.source == "network" && config.normals.network.model.empty() && !o.config.empty())
+    throw Error(o.config.string() + ": [" + kNetworkNormalsSection +
+                "] model: missing (the network normal source needs it)");
+  auto source = makeNormalSource(o.source, config.normals);
 
   // The outputs are prepared before the work (none may be an input or replace a folder) and committed together.
   const fs::path gtIn = groundTruthFor(o.input);

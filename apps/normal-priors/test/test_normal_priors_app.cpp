@@ -101,3 +101,26 @@ TEST(NormalPriorsApp, AddsNormalsChannelFromDepthAndCopiesGroundTruth) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir / "room_Images"), fs::directory_iterator()), imagesBefore);
   EXPECT_FALSE(fs::exists(dir / "room.copy"));
 }
+
+// --config is read strictly, including the [ManhattanTracker] section of the shared config/manhattan/*.ini.
+TEST(NormalPriorsConfig, ReadStrictlyWithTheTrackerSection) {
+  for (const auto& e : fs::directory_iterator(fs::path(PRIORSLAM_SOURCE_DIR) / "config/manhattan"))
+    EXPECT_NO_THROW(NormalPriorsConfig::loadFromFile(e.path())) << e.path();
+  const fs::path path = fs::temp_directory_path() / ("pslam_normal_priors_cfg_" + std::to_string(::getpid()) + ".ini");
+  const auto errorFor = [&](const std::string& text) {
+    std::ofstream(path) << text;
+    try {
+      NormalPriorsConfig::loadFromFile(path);
+    } catch (const pslam::Error& e) {
+      const std::string what = e.what();
+      return what.rfind(path.string(), 0) == 0 ? "F" + what.substr(path.string().size()) : what;
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorFor("[ManhattanTracker]\nkernelWidth = abc\n"), "F: [ManhattanTracker] kernelWidth = abc: not a number");
+  EXPECT_EQ(errorFor("[NormalsFromDepth]\ncellSize = 10 px\n"), "F: [NormalsFromDepth] cellSize = 10 px: not an integer");
+  EXPECT_EQ(errorFor("[NormalsFromDepth]\ncellSize = 2000000000\n"),
+            "F: [NormalsFromDepth] cellSize = 2000000000: must be in [3, 100]");
+  EXPECT_EQ(errorFor("[Normals]\nminDepth = 1\n"), "F: [Normals]: unknown section (did you mean NormalsFromDepth?)");
+  fs::remove(path);
+}

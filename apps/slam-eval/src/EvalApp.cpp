@@ -13,54 +13,18 @@
 namespace pslam::eval {
 
 void EvalOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  association.rule = parseAssociationRule(cfg.read_string(section, "association", toString(association.rule)));
-  association.maxTimeDifference = cfg.read_double(section, "max_time_difference", association.maxTimeDifference);
-  association.offset = cfg.read_double(section, "time_offset", association.offset);
-  alignment = parseAlignmentMode(cfg.read_string(section, "alignment", toString(alignment)));
-  const int firstN = cfg.read_int(section, "align_first_n", static_cast<int>(alignFirstN));
-  if (firstN < 0) throw Error("align_first_n: must be >= 0 (0 = all poses)");
-  alignFirstN = static_cast<std::size_t>(firstN);
-  rpe = cfg.read_bool(section, "rpe", rpe);
-  rpeOptions.delta = cfg.read_double(section, "rpe_delta", rpeOptions.delta);
-  rpeOptions.unit = parseDeltaUnit(cfg.read_string(section, "rpe_delta_unit", toString(rpeOptions.unit)));
-  rpeOptions.allPairs = cfg.read_bool(section, "rpe_all_pairs", rpeOptions.allPairs);
-  rpeOptions.relativeTolerance = cfg.read_double(section, "rpe_relative_tolerance", rpeOptions.relativeTolerance);
-  rotationError = cfg.read_bool(section, "rotation_error", rotationError);
-  depthUseAlignmentScale = cfg.read_bool(section, "dr_use_alignment_scale", depthUseAlignmentScale);
-  depthRatio.loadFromConfigFile(cfg, section);
+  params::load(*this, cfg, section);
   check();
 }
 
 void EvalOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "association", toString(association.rule));
-  cfg.write(section, "max_time_difference", association.maxTimeDifference);
-  cfg.write(section, "time_offset", association.offset);
-  cfg.write(section, "alignment", toString(alignment));
-  cfg.write(section, "align_first_n", static_cast<int>(alignFirstN));
-  cfg.write(section, "rpe", rpe);
-  cfg.write(section, "rpe_delta", rpeOptions.delta);
-  cfg.write(section, "rpe_delta_unit", toString(rpeOptions.unit));
-  cfg.write(section, "rpe_all_pairs", rpeOptions.allPairs);
-  cfg.write(section, "rpe_relative_tolerance", rpeOptions.relativeTolerance);
-  cfg.write(section, "rotation_error", rotationError);
-  cfg.write(section, "dr_use_alignment_scale", depthUseAlignmentScale);
-  depthRatio.saveToConfigFile(cfg, section);
+  params::save(*this, cfg, section);
 }
 
 void EvalOptions::check() const {
-  if (!(association.maxTimeDifference >= 0.0) || !std::isfinite(association.maxTimeDifference))
-    throw Error("max_time_difference: must be a finite value >= 0");
-  if (!std::isfinite(association.offset)) throw Error("time_offset: must be finite");
-  if (!(rpeOptions.delta > 0.0) || !std::isfinite(rpeOptions.delta)) throw Error("rpe_delta: must be > 0");
-  if (rpeOptions.unit == DeltaUnit::Frames && rpeOptions.delta != std::floor(rpeOptions.delta))
-    throw Error("rpe_delta: must be an integer when rpe_delta_unit = frames");
-  if (!(rpeOptions.relativeTolerance >= 0.0) || !std::isfinite(rpeOptions.relativeTolerance))
-    throw Error("rpe_relative_tolerance: must be a finite value >= 0");
-  if (depthUseAlignmentScale && alignment != AlignmentMode::Sim3)
-    throw Error("dr_use_alignment_scale: needs alignment = sim3");
+  params::check(*this, kSection);
   if (depthSamples.empty() != depthRawlog.empty())
     throw Error("DR needs both the map-point depth file and the rawlog with DEPTH");
-  depthRatio.check();
 }
 
 nlohmann::json EvalOptions::toJson() const {

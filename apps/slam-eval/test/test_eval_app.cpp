@@ -124,6 +124,50 @@ TEST(EvalApp, OptionsFromConfigAndTheirChecksNameTheKey) {
   expectKey("dr_tau", "0");
 }
 
+// The slam-eval ini (main: params::loadSectionFromFile): every bad value is one error naming file, section, key.
+TEST(EvalApp, ConfigFileIsReadStrictly) {
+  TempDir d("app_cfg");
+  const auto errorFor = [&](const std::string& text, const std::string& section = "slam_eval") {
+    const std::string path = (d.path / "eval.ini").string();
+    std::ofstream(path) << text;
+    EvalOptions o;
+    try {
+      params::loadSectionFromFile(o, path, section);
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      return what.rfind(path, 0) == 0 ? "F" + what.substr(path.size()) : what;
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorFor("[slam_eval]\nassociation = tum\nmax_time_difference = 0.02\nrpe_delta_unit = m\nrpe_delta = 0.5\n"),
+            "");
+  EXPECT_EQ(errorFor("[slam_eval]\nassociation = one-to-one\nrpe_delta_unit = f\n"), "");  // the former aliases
+  EXPECT_EQ(errorFor("[slam_eval]\nmax_time_difference = abc\n"),
+            "F: [slam_eval] max_time_difference = abc: not a number");
+  EXPECT_EQ(errorFor("[slam_eval]\nmax_time_difference = nan\n"),
+            "F: [slam_eval] max_time_difference = nan: not a number");
+  EXPECT_EQ(errorFor("[slam_eval]\nmax_time_difference = inf\n"),
+            "F: [slam_eval] max_time_difference = inf: must be finite");
+  EXPECT_EQ(errorFor("[slam_eval]\nmax_time_difference = 0.02 extra\n"),
+            "F: [slam_eval] max_time_difference = 0.02 extra: not a number");
+  EXPECT_EQ(errorFor("[slam_eval]\nalign_first_n = 2.5\n"), "F: [slam_eval] align_first_n = 2.5: not an integer");
+  EXPECT_EQ(errorFor("[slam_eval]\nalign_first_n = 99999999999999999999\n"),
+            "F: [slam_eval] align_first_n = 99999999999999999999: integer out of range [0, 18446744073709551615]");
+  EXPECT_EQ(errorFor("[slam_eval]\nrpe = maybe\n"), "F: [slam_eval] rpe = maybe: not a bool (true or false)");
+  EXPECT_EQ(errorFor("[slam_eval]\nassociation = bogus\n"),
+            "F: [slam_eval] association = bogus: must be one of nearest, evo, tum, one-to-one, index");
+  EXPECT_EQ(errorFor("[slam_eval]\nmax_time_diference = 0.02\n"),
+            "F: [slam_eval] max_time_diference: unknown key (did you mean max_time_difference?)");
+  EXPECT_EQ(errorFor("[slam_eval]\nrpe = true\n[slam_evall]\nrpe = false\n"),
+            "F: [slam_evall]: unknown section (did you mean slam_eval?)");
+  EXPECT_EQ(errorFor("max_time_difference = 0.02\n"),
+            "F:1: max_time_difference: key outside any section (the file needs a [Section] header before it)");
+  EXPECT_EQ(errorFor("[slam_eval]\nrpe_delta = 2\n", "other"), "F: [slam_eval]: unknown section (did you mean other?)");
+  EXPECT_EQ(errorFor("[slam_eval]\ndr_use_alignment_scale = true\nalignment = se3\n"),
+            "F: [slam_eval] dr_use_alignment_scale = true: needs alignment = sim3");
+  EXPECT_EQ(errorFor("[slam_eval]\ndr_tau = -1\n"), "F: [slam_eval] dr_tau = -1: must be > 0");
+}
+
 TEST(EvalApp, BadInputsGiveClearErrors) {
   TempDir d("app_bad");
   const Trajectory gt = makeSpiral(20);

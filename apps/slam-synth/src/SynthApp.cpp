@@ -29,84 +29,21 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-void keyError(const std::string& section, const std::string& key, const std::string& msg) {
-  throw Error("[" + section + "] " + key + ": " + msg);
-}
-
 }  // namespace
 
 // ------------------------------------------------------------------------------------------------ options
 void SynthOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  scenario = cfg.read_string(section, "scenario", scenario);
-  frames = cfg.read_int(section, "frames", frames);
-  width = cfg.read_int(section, "width", width);
-  height = cfg.read_int(section, "height", height);
-  fx = cfg.read_double(section, "fx", fx);
-  fy = cfg.read_double(section, "fy", fy);
-  cx = cfg.read_double(section, "cx", cx);
-  cy = cfg.read_double(section, "cy", cy);
-  const int s = cfg.read_int(section, "seed", static_cast<int>(seed));
-  if (s < 0) keyError(section, "seed", "must be >= 0");
-  seed = static_cast<std::uint32_t>(s);
-  textured = cfg.read_bool(section, "texture", textured);
-  noiseSigma = cfg.read_double(section, "noise_sigma", noiseSigma);
-  exposure = cfg.read_bool(section, "exposure", exposure);
-  supersampling = cfg.read_int(section, "supersampling", supersampling);
-  antiAliasing = cfg.read_string(section, "anti_aliasing", antiAliasing);
-  aaContrast = cfg.read_double(section, "aa_contrast", aaContrast);
-  const std::string out = cfg.read_string(section, "out_dir", outDir.string());
-  outDir = out;
-  name = cfg.read_string(section, "name", name);
-  previewFrame = cfg.read_int(section, "preview_frame", previewFrame);
-  threads = cfg.read_int(section, "threads", threads);
+  // The rules only: out_dir may still come from the command line.
+  params::load(*this, cfg, section);
 }
 
 void SynthOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "scenario", scenario);
-  cfg.write(section, "frames", frames);
-  cfg.write(section, "width", width);
-  cfg.write(section, "height", height);
-  cfg.write(section, "fx", fx);
-  cfg.write(section, "fy", fy);
-  cfg.write(section, "cx", cx);
-  cfg.write(section, "cy", cy);
-  cfg.write(section, "seed", static_cast<int>(seed));
-  cfg.write(section, "texture", textured);
-  cfg.write(section, "noise_sigma", noiseSigma);
-  cfg.write(section, "exposure", exposure);
-  cfg.write(section, "supersampling", supersampling);
-  cfg.write(section, "anti_aliasing", antiAliasing);
-  cfg.write(section, "aa_contrast", aaContrast);
-  cfg.write(section, "out_dir", outDir.string());
-  cfg.write(section, "name", name);
-  cfg.write(section, "preview_frame", previewFrame);
-  cfg.write(section, "threads", threads);
+  params::save(*this, cfg, section);
 }
 
 void SynthOptions::check() const {
-  const std::string sec = "synth";
-  try {
-    (void)scenarioInfo(scenario);
-  } catch (const Error& e) {
-    keyError(sec, "scenario", e.what());
-  }
-  if (frames < 0 || frames > 1000000) keyError(sec, "frames", "must be in [0, 1000000] (0 = scenario default)");
-  if (width < 8 || width > 8192) keyError(sec, "width", "must be in [8, 8192]");
-  if (height < 8 || height > 8192) keyError(sec, "height", "must be in [8, 8192]");
-  if (!std::isfinite(fx) || fx < 0) keyError(sec, "fx", "must be >= 0 (0 = scenario default)");
-  if (!std::isfinite(fy) || fy < 0) keyError(sec, "fy", "must be >= 0 (0 = same as fx)");
-  if (!std::isfinite(cx) || !std::isfinite(cy)) keyError(sec, "cx/cy", "must be finite");
-  if (!std::isfinite(noiseSigma) || noiseSigma < 0 || noiseSigma > 100)
-    keyError(sec, "noise_sigma", "must be in [0, 100] grey levels");
-  if (supersampling < 1 || supersampling > 8) keyError(sec, "supersampling", "must be in [1, 8]");
-  if (antiAliasing != "silhouettes" && antiAliasing != "adaptive" && antiAliasing != "full")
-    keyError(sec, "anti_aliasing", "'" + antiAliasing + "' is not one of silhouettes, adaptive, full");
-  if (!std::isfinite(aaContrast) || aaContrast <= 0) keyError(sec, "aa_contrast", "must be positive (grey levels)");
-  if (threads < 1 || threads > 64) keyError(sec, "threads", "must be in [1, 64]");
-  if (outDir.empty()) keyError(sec, "out_dir", "output folder is required");
-  const std::string n = effectiveName();
-  if (n.find_first_of("/\\") != std::string::npos || n == "." || n == "..")
-    keyError(sec, "name", "'" + n + "' must be a plain file stem");
+  params::check(*this, kSection);
+  if (outDir.empty()) throw params::ParamError(kSection, "out_dir", "", "output folder is required");
 }
 
 AntiAliasing SynthOptions::antiAliasingMode() const {

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/synth/SynthApp.h"
@@ -97,6 +98,42 @@ TEST(SynthOptions, LoadsFromAnIniSectionAndRoundTrips) {
   SynthOptions back;
   back.loadFromConfigFile(saved, "s");
   EXPECT_EQ(back.toJson(), o.toJson());
+}
+
+// slam-synth --config (params::loadSectionFromFile): every bad value is one error naming file, section and key.
+TEST(SynthOptions, ConfigFileIsReadStrictly) {
+  const fs::path dir = tempDir("cfg");
+  const auto errorFor = [&](const std::string& text) {
+    const std::string path = (dir / "synth.ini").string();
+    std::ofstream(path) << text;
+    SynthOptions o;
+    try {
+      params::loadSectionFromFile(o, path, "synth");
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      return what.rfind(path, 0) == 0 ? "F" + what.substr(path.size()) : what;
+    }
+    return std::string();
+  };
+  for (const auto& e : fs::directory_iterator(fs::path(PRIORSLAM_SOURCE_DIR) / "config/synth")) {
+    SynthOptions o;
+    EXPECT_NO_THROW(params::loadSectionFromFile(o, e.path().string(), "synth")) << e.path();
+  }
+  EXPECT_EQ(errorFor("[synth]\nframes = 2000.7\n"), "F: [synth] frames = 2000.7: not an integer");
+  EXPECT_EQ(errorFor("[synth]\nframes = 2000000000\n"), "F: [synth] frames = 2000000000: must be in [0, 1000000]");
+  EXPECT_EQ(errorFor("[synth]\nwidth = abc\n"), "F: [synth] width = abc: not an integer");
+  EXPECT_EQ(errorFor("[synth]\nwidth = 640 extra\n"), "F: [synth] width = 640 extra: not an integer");
+  EXPECT_EQ(errorFor("[synth]\ntexture = maybe\n"), "F: [synth] texture = maybe: not a bool (true or false)");
+  EXPECT_EQ(errorFor("[synth]\nseed = -1\n"), "F: [synth] seed = -1: integer out of range [0, 4294967295]");
+  EXPECT_EQ(errorFor("[synth]\nnoise_sigma = nan\n"), "F: [synth] noise_sigma = nan: not a number");
+  EXPECT_EQ(errorFor("[synth]\nscenario = moon\n"),
+            "F: [synth] scenario = moon: must be one of room, lowtexture, street, corridor, jam, jam-static");
+  EXPECT_EQ(errorFor("[synth]\nnoise = 1\n"), "F: [synth] noise: unknown key (did you mean noise_sigma?)");
+  EXPECT_EQ(errorFor("[Synth]\nframes = 5\n"), "F: [Synth]: unknown section (did you mean synth?)");
+  EXPECT_EQ(errorFor("frames = 5\n"),
+            "F:1: frames: key outside any section (the file needs a [Section] header before it)");
+  EXPECT_EQ(errorFor("[synth]\nframes = 5\n"), "");  // out_dir may come from the command line
+  fs::remove_all(dir);
 }
 
 TEST(Sensor, ExposureIsAffineAndNoiseIsSeeded) {

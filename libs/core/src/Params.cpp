@@ -5,6 +5,7 @@
 #include <charconv>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include <mrpt/config/CConfigFileMemory.h>
@@ -58,7 +59,11 @@ const char* numberStart(const std::string& text) {
   return b;
 }
 
-std::string bound(double v) { return formatDouble(v); }
+// Whole bounds in plain digits (1000000, not the shortest round-trip form 1e+06).
+std::string bound(double v) {
+  if (std::abs(v) < 1e15 && v == std::floor(v)) return std::to_string(static_cast<long long>(v));
+  return formatDouble(v);
+}
 
 }  // namespace
 
@@ -95,6 +100,13 @@ std::string valueText(const std::string& raw) {
 }
 
 std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  // A key the word begins (a shortened key: distortion -> distortion_model) before the nearest by edit distance.
+  std::string prefixed;
+  for (const auto& c : candidates)
+    if (c.size() > word.size() && !word.empty() && equalsIgnoreCase(c.substr(0, word.size()), word) &&
+        (prefixed.empty() || c.size() < prefixed.size()))
+      prefixed = c;
+  if (!prefixed.empty()) return prefixed;
   std::string best;
   int bestDistance = std::numeric_limits<int>::max();
   for (const auto& c : candidates) {
@@ -202,6 +214,32 @@ std::string oneOfText(const std::vector<std::string>& names) {
   return s;
 }
 
+std::optional<std::string> parseDoubleList(const std::string& text, std::vector<double>& out) {
+  std::string t = trim(text);
+  if (!t.empty() && t.front() == '[') {
+    if (t.back() != ']') return "unbalanced '[' (expected numbers separated by commas or spaces)";
+    t = t.substr(1, t.size() - 2);
+  }
+  for (char& c : t)
+    if (c == ',') c = ' ';
+  std::vector<double> values;
+  std::istringstream words(t);
+  std::string word;
+  while (words >> word) {
+    double v = 0;
+    if (auto why = parseDouble(word, v)) return "'" + word + "': " + *why + " (expected numbers separated by commas or spaces)";
+    values.push_back(v);
+  }
+  out = std::move(values);
+  return std::nullopt;
+}
+
+std::string formatDoubleList(const double* v, std::size_t n) {
+  std::string s;
+  for (std::size_t i = 0; i < n; ++i) s += (i ? " " : "") + formatDouble(v[i]);
+  return s;
+}
+
 std::vector<std::string> KeyCollector::keys() const {
   std::vector<std::string> k;
   for (const auto& r : rows_) k.push_back(r.key);
@@ -258,7 +296,7 @@ std::string Range::text() const {
   else if (hasHi)
     t = std::string("must be ") + (hiOpen_ ? "< " : "<= ") + bound(hi_);
   else
-    t = "must be a number";
+    return infinite_ ? "must be a number" : "must be finite";
   return infinite_ ? t + " (inf allowed)" : t;
 }
 
@@ -283,6 +321,7 @@ Range inClosed(double lo, double hi) { return Range(lo, false, hi, false); }
 Range inOpen(double lo, double hi) { return Range(lo, true, hi, true); }
 Range inLeftOpen(double lo, double hi) { return Range(lo, true, hi, false); }
 Range inRightOpen(double lo, double hi) { return Range(lo, false, hi, true); }
+Range finite() { return Range(-kInf, true, kInf, true); }
 
 OneOf oneOf(std::vector<std::string> names) { return OneOf{std::move(names)}; }
 
@@ -305,6 +344,11 @@ std::string iniText(const std::function<void(mrpt::config::CConfigFileBase&)>& w
   return text;
 }
 
+std::map<std::string, std::string> sectionValues(const mrpt::config::CConfigFileBase& cfg, const std::string& section,
+                                                 const std::vector<std::string>& known) {
+  return detail::readSection(cfg, section, known);
+}
+
 void requireKnownSections(const mrpt::config::CConfigFileBase& cfg, const std::vector<std::string>& known) {
   std::vector<std::string> sections;
   cfg.getAllSections(sections);
@@ -320,7 +364,61 @@ std::string readConfigText(const std::string& path) {
   std::stringstream text;
   text << in.rdbuf();
   require(static_cast<bool>(in) || in.eof(), path, "cannot read config file");
+  checkIniSyntax(text.str(), path);
   return text.str();
+}
+
+void checkIniSyntax(const std::string& text, const std::string& source) {
+  struct Seen {
+    std::string name;
+    std::size_t line;
+  };
+  std::map<std::string, Seen> sections;                        // by lower-case name
+  std::map<std::string, std::map<std::string, Seen>> keys;     // section -> lower-case key -> first line
+  std::string section;
+  bool inSection = false;
+  std::size_t lineNo = 0, begin = 0;
+  while (begin <= text.size()) {
+    std::size_t end = text.find('\n', begin);
+    if (end == std::string::npos) end = text.size();
+    const std::string raw = text.substr(begin, end - begin);
+    begin = end + 1;
+    ++lineNo;
+    const std::string at = source + ":" + std::to_string(lineNo) + ": ";
+    if (raw.find('\0') != std::string::npos) throw Error(at + "NUL byte (not a text file?)");
+    const std::string line = valueText(raw);  // without comment, trimmed
+    if (line.empty() || line.compare(0, 2, "//") == 0) continue;
+    if (line[0] == '@')
+      throw Error(at + "'" + line + "': MRPT preprocessor lines (@define, @include) are not supported");
+    if (line[0] == '[') {
+      const std::string name = line.size() >= 2 && line.back() == ']' ? trim(line.substr(1, line.size() - 2)) : "";
+      if (name.empty() || name.find_first_of("[]") != std::string::npos)
+        throw Error(at + "'" + line + "': malformed section header (expected [Section])");
+      const auto [it, isNew] = sections.emplace(lower(name), Seen{name, lineNo});
+      if (!isNew)
+        throw Error(at + "[" + name + "]: section appears twice (first as [" + it->second.name + "] on line " +
+                    std::to_string(it->second.line) + ")");
+      section = name;
+      inSection = true;
+      continue;
+    }
+    const auto eq = line.find('=');
+    if (eq == std::string::npos)
+      throw Error(at + "'" + line + "': expected key = value" + (inSection ? " in [" + section + "]" : ""));
+    const std::string key = trim(line.substr(0, eq));
+    if (key.empty()) throw Error(at + "'" + line + "': empty key" + (inSection ? " in [" + section + "]" : ""));
+    if (!inSection)
+      throw Error(at + key + ": key outside any section (the file needs a [Section] header before it)");
+    const std::string value = line.substr(eq + 1);
+    if (value.find("${") != std::string::npos || value.find("$env{") != std::string::npos ||
+        value.find("$eval{") != std::string::npos)
+      throw Error(at + "[" + section + "] " + key + ": variable expansion ($...{...}) is not supported");
+    auto& inThis = keys[lower(section)];
+    const auto [it, isNew] = inThis.emplace(lower(key), Seen{key, lineNo});
+    if (!isNew)
+      throw Error(at + "[" + section + "] " + key + ": key appears twice in the section (first as " + it->second.name +
+                  " on line " + std::to_string(it->second.line) + ")");
+  }
 }
 
 Override parseOverride(const std::string& text) {
@@ -353,6 +451,25 @@ void applyOverrides(mrpt::config::CConfigFileMemory& cfg, const std::vector<std:
     }
     cfg.write(o.section, o.key, o.value);
   }
+}
+
+void loadConfigFile(const std::string& path, const std::vector<std::string>& sections,
+                    const std::function<void(const mrpt::config::CConfigFileBase&)>& load,
+                    const std::vector<std::string>& overrides) {
+  const std::string text = readConfigText(path);
+  std::unique_ptr<mrpt::config::CConfigFileMemory> cfg;
+  try {
+    cfg = std::make_unique<mrpt::config::CConfigFileMemory>(text);
+  } catch (const std::exception& e) {
+    // checkIniSyntax() leaves MRPT's reader nothing to fail on; should it still, keep its first line.
+    const std::string what = e.what();
+    throw Error(path + ": cannot parse the ini file: " + what.substr(0, what.find('\n')));
+  }
+  applyOverrides(*cfg, overrides);
+  withSource(path, overrides, [&] {
+    if (!sections.empty()) requireKnownSections(*cfg, sections);
+    load(*cfg);
+  });
 }
 
 void withSource(const std::string& path, const std::vector<std::string>& overrides, const std::function<void()>& load) {

@@ -374,6 +374,12 @@ TEST(Params, ReadConfigTextNamesAMissingFile) {
   std::filesystem::remove(path);
 }
 
+TEST(Params, ClosestPrefersAKeyTheWordBegins) {
+  EXPECT_EQ(params::closest("distortion", {"resolution", "fx", "distortion_model"}), "distortion_model");
+  EXPECT_EQ(params::closest("noise", {"name", "noise_sigma", "noise_sigma_extra"}), "noise_sigma");
+  EXPECT_EQ(params::closest("Noise", {"name", "noise_sigma"}), "noise_sigma");
+}
+
 TEST(Params, ClosestPrefersCaseOnlyDifferences) {
   EXPECT_EQ(params::closest("maxLocalKeyframes", {"maxLocalKeyFrames", "minLocalMapInliers", "localMapRatio"}),
             "maxLocalKeyFrames");
@@ -383,4 +389,173 @@ TEST(Params, ClosestPrefersCaseOnlyDifferences) {
   EXPECT_EQ(params::valueText("  5  ; Table 3.1"), "5");
   EXPECT_EQ(params::valueText("a;b"), "a;b");
   EXPECT_EQ(params::valueText("models/x.onnx"), "models/x.onnx");
+}
+
+// ------------------------------------------------------------------------------------------ files, tools
+namespace {
+
+std::string syntaxError(const std::string& text) {
+  try {
+    params::checkIniSyntax(text, "f.ini");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+struct TempIni {
+  std::filesystem::path path;
+  explicit TempIni(const std::string& text, const std::string& name = "pslam_test_params_file.ini")
+      : path(std::filesystem::temp_directory_path() / name) {
+    std::ofstream(path) << text;
+  }
+  ~TempIni() { std::filesystem::remove(path); }
+};
+
+std::string fileError(const std::string& text, const std::vector<std::string>& overrides = {}) {
+  TempIni f(text);
+  demo::Config c;
+  try {
+    params::loadSectionsFromFile(c, f.path.string(), overrides);
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    const std::string prefix = f.path.string();
+    return what.rfind(prefix, 0) == 0 ? "F" + what.substr(prefix.size()) : what;
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Params, IniSyntaxIsChecked) {
+  EXPECT_EQ(syntaxError("; comment\n# comment\n// comment\n\n[Demo] ; c\ncount = 5 ; c\n  sigma=1\n[Other]\n"), "");
+  EXPECT_EQ(syntaxError("[Demo]\ndist = [0.1 0.2]\nname = a # b\n"), "");  // brackets in a value are no header
+  // An ini without section headers (MRPT would put the keys in a nameless section, which no one reads).
+  EXPECT_EQ(syntaxError("# a file\nnFeatures = 2000\n"),
+            "f.ini:2: nFeatures: key outside any section (the file needs a [Section] header before it)");
+  EXPECT_EQ(syntaxError("[Demo]\ncount 5\n"), "f.ini:2: 'count 5': expected key = value in [Demo]");
+  EXPECT_EQ(syntaxError("garbage\n"), "f.ini:1: 'garbage': expected key = value");
+  EXPECT_EQ(syntaxError("[Demo]\n= 5\n"), "f.ini:2: '= 5': empty key in [Demo]");
+  EXPECT_EQ(syntaxError("[Demo\ncount = 5\n"), "f.ini:1: '[Demo': malformed section header (expected [Section])");
+  EXPECT_EQ(syntaxError("[]\n"), "f.ini:1: '[]': malformed section header (expected [Section])");
+  EXPECT_EQ(syntaxError("[Demo]\ncount = 5\nsigma = 1\ncount = 6\n"),
+            "f.ini:4: [Demo] count: key appears twice in the section (first as count on line 2)");
+  EXPECT_EQ(syntaxError("[Demo]\ncount = 5\nCOUNT = 6\n"),
+            "f.ini:3: [Demo] COUNT: key appears twice in the section (first as count on line 2)");
+  EXPECT_EQ(syntaxError("[Demo]\ncount = 5\n[Other]\ncount = 6\n"), "");  // same key, other section
+  EXPECT_EQ(syntaxError("[Demo]\n[Other]\n[demo]\n"),
+            "f.ini:3: [demo]: section appears twice (first as [Demo] on line 1)");
+  EXPECT_EQ(syntaxError("@define X 1\n"),
+            "f.ini:1: '@define X 1': MRPT preprocessor lines (@define, @include) are not supported");
+  EXPECT_EQ(syntaxError("[Demo]\nname = ${HOME}\n"),
+            "f.ini:2: [Demo] name: variable expansion ($...{...}) is not supported");
+  EXPECT_EQ(syntaxError(std::string("[Demo]\ncount = 1\0", 18)), "f.ini:2: NUL byte (not a text file?)");
+  EXPECT_EQ(syntaxError("[Demo]\r\ncount = 5\r\n"), "");
+}
+
+TEST(Params, LoadConfigFileNamesTheFileSectionAndKey) {
+  EXPECT_EQ(fileError("[Demo]\ncount = 8\n[Other]\nname = y\n"), "");
+  EXPECT_EQ(fileError(""), "");
+  EXPECT_EQ(fileError("[Demo]\ncount = 2000 extra\n"), "F: [Demo] count = 2000 extra: not an integer");
+  EXPECT_EQ(fileError("[Demo]\nparallel = maybe\n"), "F: [Demo] parallel = maybe: not a bool (true or false)");
+  EXPECT_EQ(fileError("[Demo]\ncount = 8\n[Othre]\nname = y\n"), "F: [Othre]: unknown section (did you mean Other?)");
+  EXPECT_EQ(fileError("count = 8\n"),
+            "F:1: count: key outside any section (the file needs a [Section] header before it)");
+  EXPECT_EQ(fileError("[Demo]\ncount = 8\n", {"Demo.count=1"}),
+            "override 'Demo.count=1': [Demo] count = 1: must be in [3, 100]");
+  // One section of a file that may hold only that one.
+  TempIni f("[Demo]\ncount = 9\n[Other]\nname = y\n");
+  demo::Demo d;
+  try {
+    params::loadSectionFromFile(d, f.path.string(), "Demo");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), f.path.string() + ": [Other]: unknown section (did you mean Demo?)");
+  }
+  TempIni g("[Demo]\ncount = 9\n");
+  params::loadSectionFromFile(d, g.path.string(), "Demo");
+  EXPECT_EQ(d.count, 9);
+}
+
+TEST(Params, ListsPathsAndArraysParseStrictly) {
+  std::vector<double> v;
+  EXPECT_FALSE(params::Codec<std::vector<double>>::parse("1, 2.5,3", v));
+  EXPECT_EQ(v, (std::vector<double>{1, 2.5, 3}));
+  EXPECT_FALSE(params::Codec<std::vector<double>>::parse("[0.1 -0.2  3e-3]", v));
+  EXPECT_EQ(v, (std::vector<double>{0.1, -0.2, 3e-3}));
+  EXPECT_FALSE(params::Codec<std::vector<double>>::parse("", v));
+  EXPECT_TRUE(v.empty());
+  EXPECT_EQ(*params::Codec<std::vector<double>>::parse("1, x", v),
+            "'x': not a number (expected numbers separated by commas or spaces)");
+  EXPECT_EQ(*params::Codec<std::vector<double>>::parse("[1 2", v),
+            "unbalanced '[' (expected numbers separated by commas or spaces)");
+  EXPECT_TRUE(params::Codec<std::vector<double>>::parse("1 nan", v));
+  EXPECT_EQ(params::Codec<std::vector<double>>::format({0.1, -2}), "0.1 -2");
+  using Array3 = std::array<double, 3>;
+  Array3 a{};
+  EXPECT_FALSE(params::Codec<Array3>::parse("1 2 3", a));
+  EXPECT_EQ(a, (Array3{1, 2, 3}));
+  EXPECT_EQ(*params::Codec<Array3>::parse("1 2", a), "expected 3 numbers, got 2");
+  std::filesystem::path p;
+  EXPECT_FALSE(params::Codec<std::filesystem::path>::parse("a b/c.ini", p));
+  EXPECT_EQ(p, "a b/c.ini");
+}
+
+TEST(Params, ValuesOfKeysThatAreNoFixedList) {
+  mrpt::config::CConfigFileMemory cfg("[Map]\nnumClasses = 2\nclass0 = road static\nclass3 = car dynamic\n");
+  const std::vector<std::string> known{"numClasses", "class0", "class1"};
+  try {
+    params::sectionValues(cfg, "Map", known);
+    FAIL();
+  } catch (const params::ParamError& e) {
+    EXPECT_STREQ(e.what(), "[Map] class3: unknown key (did you mean class0?)");
+  }
+  mrpt::config::CConfigFileMemory ok("[Map]\nnumClasses = 2 ; two\n");
+  const auto values = params::sectionValues(ok, "Map", known);
+  ASSERT_EQ(values.size(), 1u);
+  EXPECT_EQ(values.at("numClasses"), "2");
+  EXPECT_EQ(params::parseValue<int>("Map", "numClasses", "2", params::inClosed(1, 256)), 2);
+  try {
+    params::parseValue<int>("Map", "numClasses", "2000000000", params::inClosed(1, 256));
+    FAIL();
+  } catch (const params::ParamError& e) {
+    EXPECT_STREQ(e.what(), "[Map] numClasses = 2000000000: must be in [1, 256]");
+  }
+}
+
+TEST(Params, CommandLineNumbersUseTheSameParsingAndRules) {
+  const auto nonNegative = params::cliCheck<double>(params::atLeast(0));
+  EXPECT_EQ(nonNegative("0.02"), "");
+  EXPECT_EQ(nonNegative("nan"), "nan: not a number");
+  EXPECT_EQ(nonNegative("inf"), "inf: must be finite");
+  EXPECT_EQ(nonNegative("-1"), "-1: must be >= 0");
+  EXPECT_EQ(nonNegative("0.5s"), "0.5s: not a number");
+  EXPECT_EQ(params::cliCheck<double>(params::finite())("-inf"), "-inf: must be finite");
+  EXPECT_EQ(params::cliCheck<int>()("2000.7"), "2000.7: not an integer");
+  EXPECT_EQ(params::cliCheck<int>()("2000000000000"), "2000000000000: integer out of range [-2147483648, 2147483647]");
+  EXPECT_EQ(params::cliCheck<std::size_t>()("-1"), "-1: integer out of range [0, 18446744073709551615]");
+  EXPECT_EQ(params::cliCheck<int>(params::inClosed(1, 64))("0"), "0: must be in [1, 64]");
+  try {
+    params::checkOption("--max-diff", std::nan(""), params::atLeast(0));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "--max-diff = nan: must be a number");
+  }
+}
+
+TEST(Params, RangeBoundsReadAsWritten) {
+  EXPECT_EQ(params::inClosed(1, 1000000).text(), "must be in [1, 1000000]");
+  EXPECT_EQ(params::inLeftOpen(0, 0.5).text(), "must be in (0, 0.5]");
+  EXPECT_EQ(params::finite().text(), "must be finite");
+}
+
+TEST(Params, CommandLineOptionOfAKeyUsesItsParsingAndRule) {
+  const auto count = params::cliCheckKey<demo::Demo>("count");
+  EXPECT_EQ(count("50"), "");
+  EXPECT_EQ(count("2000.7"), "2000.7: not an integer");
+  EXPECT_EQ(count("2000000000"), "2000000000: must be in [3, 100]");
+  EXPECT_EQ(params::cliCheckKey<demo::Demo>("sigma")("nan"), "nan: not a number");
+  EXPECT_EQ(params::cliCheckKey<demo::Demo>("keyFrames.ratio")("1.5"), "1.5: must be in (0, 1]");
+  EXPECT_EQ(params::cliCheckKey<demo::Demo>("minThreshold")("11"), "11: must be in (0, count]");  // count = 10
+  EXPECT_THROW(params::cliCheckKey<demo::Demo>("nope")("1"), std::logic_error);
 }

@@ -4,9 +4,10 @@
 #include <cctype>
 #include <cmath>
 
-#include <mrpt/config/CConfigFile.h>
+#include <mrpt/config/CConfigFileBase.h>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 
 namespace fs = std::filesystem;
 
@@ -36,23 +37,84 @@ mrpt::img::TCamera makePinholeCamera(uint32_t width, uint32_t height, double fx,
   return cam;
 }
 
-mrpt::img::TCamera loadCameraIni(const fs::path& iniFile, const std::string& section) {
+namespace {
+
+// The keys of a TCamera block (mrpt::img::TCamera::loadFromConfigFile) and ours (frame_rate_hz), checked before
+// MRPT reads the block: MRPT ignores unknown keys (`distortion` for distortion_model), reads `fx = abc` as 0,
+// `resolution = [640 480 extra]` as 640x480. The values here only validate; MRPT's reading stays the one used.
+struct CameraIniKeys {
+  std::vector<double> resolution{1, 1};
+  double fx = 1, fy = 1, cx = 0, cy = 0;
+  std::vector<double> dist;
+  std::string distortion_model = "none";
+  double focal_length = 0;
+  std::string camera_name;
+  double frame_rate_hz = 1;
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, resolution, custom([](const std::vector<double>& r) -> std::optional<std::string> {
+                  if (r.size() != 2) return "expected [width height]";
+                  for (double x : r)
+                    if (!(x >= 1 && x <= 65535 && x == std::floor(x)))
+                      return "width and height must be whole numbers in [1, 65535]";
+                  return std::nullopt;
+                }, "[width height]"),
+                "image size");
+    PSLAM_FIELD(v, fx, greaterThan(0), "focal length x (pixels)");
+    PSLAM_FIELD(v, fy, greaterThan(0), "focal length y (pixels)");
+    PSLAM_FIELD(v, cx, finite(), "principal point x");
+    PSLAM_FIELD(v, cy, finite(), "principal point y");
+    PSLAM_FIELD(v, dist, custom([](const std::vector<double>& d) -> std::optional<std::string> {
+                  if (d.size() > 8) return "at most 8 coefficients";
+                  for (double x : d)
+                    if (!std::isfinite(x)) return "coefficients must be finite";
+                  return std::nullopt;
+                }, "[k1 k2 p1 p2 k3] (plumb_bob) or [k1 k2 k3 k4] (kannala_brandt)"),
+                "distortion coefficients");
+    PSLAM_FIELD(v, distortion_model, oneOf({"none", "plumb_bob", "kannala_brandt"}), "distortion model");
+    PSLAM_FIELD(v, focal_length, atLeast(0), "focal length in metres (optional)");
+    PSLAM_FIELD(v, camera_name, anyValue, "name (optional)");
+    PSLAM_FIELD(v, frame_rate_hz, greaterThan(0), "nominal frame rate (ours; TCamera ignores it)");
+  }
+};
+
+/// The block [section] of a camera ini, strictly checked (file, section, key in every error); `use` gets it.
+template <class F>
+void readCameraIni(const fs::path& iniFile, const std::string& section, F use) {
   std::error_code ec;
   if (!fs::is_regular_file(iniFile, ec)) throw Error(iniFile.string() + ": camera ini file not found");
-  mrpt::config::CConfigFile cfg(iniFile.string());
-  if (!cfg.sectionExists(section)) throw Error(iniFile.string() + ": no section [" + section + "]");
+  // Other sections may hold other cameras (--camera-section picks one): only the block read is checked.
+  params::loadConfigFile(iniFile.string(), {}, [&](const mrpt::config::CConfigFileBase& cfg) {
+    if (!cfg.sectionExists(section)) throw Error("no section [" + section + "]");
+    CameraIniKeys keys;
+    params::load(keys, cfg, section);
+    for (const char* required : {"resolution", "fx", "fy", "cx", "cy", "dist"})
+      if (!cfg.keyExists(section, required))
+        throw params::ParamError(section, required, std::nullopt,
+                                 "missing (a TCamera block needs resolution, fx, fy, cx, cy, dist)");
+    use(cfg);
+  });
+}
+
+}  // namespace
+
+mrpt::img::TCamera loadCameraIni(const fs::path& iniFile, const std::string& section) {
   mrpt::img::TCamera cam;
-  try {
-    cam.loadFromConfigFile(section, cfg);
-  } catch (const std::exception& e) {
-    // MRPT exceptions carry a banner, a location and a call stack: keep the message, which names the key.
-    std::string msg = oneLineMessage(e);
-    const std::string internal = " and failIfNotFound=true.";
-    if (msg.size() > internal.size() && msg.compare(msg.size() - internal.size(), internal.size(), internal) == 0)
-      msg.resize(msg.size() - internal.size());
-    throw Error(iniFile.string() + ": [" + section + "]: invalid TCamera block (keys resolution, fx, fy, cx, cy, " +
-                "dist, distortion_model): " + msg);
-  }
+  readCameraIni(iniFile, section, [&](const mrpt::config::CConfigFileBase& cfg) {
+    try {
+      cam.loadFromConfigFile(section, cfg);
+    } catch (const std::exception& e) {
+      // MRPT exceptions carry a banner, a location and a call stack: keep the message, which names the key.
+      std::string msg = oneLineMessage(e);
+      const std::string internal = " and failIfNotFound=true.";
+      if (msg.size() > internal.size() && msg.compare(msg.size() - internal.size(), internal.size(), internal) == 0)
+        msg.resize(msg.size() - internal.size());
+      throw Error("[" + section +
+                  "]: invalid TCamera block (keys resolution, fx, fy, cx, cy, dist, distortion_model): " + msg);
+    }
+  });
   const std::string ctx = iniFile.string() + ": [" + section + "]";
   require(cam.ncols > 0 && cam.nrows > 0, ctx, "resolution must be positive");
   require(std::isfinite(cam.fx()) && cam.fx() > 0, ctx, "fx must be positive");
@@ -62,12 +124,12 @@ mrpt::img::TCamera loadCameraIni(const fs::path& iniFile, const std::string& sec
 }
 
 std::optional<double> loadFrameRateFromIni(const fs::path& iniFile, const std::string& section) {
-  std::error_code ec;
-  if (!fs::is_regular_file(iniFile, ec)) throw Error(iniFile.string() + ": camera ini file not found");
-  mrpt::config::CConfigFile cfg(iniFile.string());
-  if (!cfg.keyExists(section, "frame_rate_hz")) return std::nullopt;
-  const double rate = cfg.read_double(section, "frame_rate_hz", 0.0);
-  require(std::isfinite(rate) && rate > 0, iniFile.string() + ": [" + section + "] frame_rate_hz", "must be positive");
+  std::optional<double> rate;
+  readCameraIni(iniFile, section, [&](const mrpt::config::CConfigFileBase& cfg) {
+    if (cfg.keyExists(section, "frame_rate_hz"))
+      rate = params::parseValue<double>(section, "frame_rate_hz",
+                                        params::valueText(cfg.read_string(section, "frame_rate_hz", "")));
+  });
   return rate;
 }
 

@@ -140,6 +140,34 @@ TEST(Camera, BrokenIniNamesFileAndSection) {
   expectError([&] { loadCameraIni(d / "cam.ini"); }, {"cam.ini", "[CAMERA]"});
   expectError([&] { loadCameraIni(d / "cam.ini", "OTHER"); }, {"cam.ini", "no section [OTHER]"});
   expectError([&] { loadCameraIni(d / "missing.ini"); }, {"missing.ini", "not found"});
+  // Read strictly before MRPT reads the block (MRPT ignores unknown keys and reads 'abc' as 0).
+  const std::string good = "[CAMERA]\nresolution = [640 480]\nfx = 500\nfy = 500\ncx = 320\ncy = 240\n"
+                           "distortion_model = none\ndist = [0 0 0 0 0]\n";
+  const auto errorFor = [&](const std::string& extra) {
+    writeText(d / "cam.ini", good + extra);
+    try {
+      loadCameraIni(d / "cam.ini");
+    } catch (const pslam::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string f = (d / "cam.ini").string();
+  EXPECT_EQ(errorFor(""), "");
+  EXPECT_EQ(errorFor("distortion = plumb_bob\n"), f + ": [CAMERA] distortion: unknown key (did you mean distortion_model?)");
+  EXPECT_EQ(errorFor("frame_rate_hz = abc\n"), f + ": [CAMERA] frame_rate_hz = abc: not a number");
+  EXPECT_EQ(errorFor("frame_rate_hz = 30 fps\n"), f + ": [CAMERA] frame_rate_hz = 30 fps: not a number");
+  writeText(d / "cam.ini", "[CAMERA]\nresolution = [640 480 3]\nfx = 500\nfy = 500\ncx = 320\ncy = 240\ndist = [0 0 0 0 0]\n");
+  expectError([&] { loadCameraIni(d / "cam.ini"); }, {f + ": [CAMERA] resolution = 640 480 3: expected [width height]"});
+  writeText(d / "cam.ini", "[CAMERA]\nresolution = [640 480]\nfx = abc\nfy = 500\ncx = 320\ncy = 240\ndist = [0 0 0 0 0]\n");
+  expectError([&] { loadCameraIni(d / "cam.ini"); }, {f + ": [CAMERA] fx = abc: not a number"});
+  writeText(d / "cam.ini", "[CAMERA]\n");
+  expectError([&] { loadCameraIni(d / "cam.ini"); }, {f + ": [CAMERA] resolution: missing"});
+  writeText(d / "cam.ini", "resolution = [640 480]\n");
+  expectError([&] { loadFrameRateFromIni(d / "cam.ini"); }, {f + ":1: resolution: key outside any section"});
+  // Other sections may hold other cameras: --camera-section picks one.
+  writeText(d / "cam.ini", good + "[CAMERA_RIGHT]\nresolution = [640 480]\n");
+  EXPECT_NO_THROW(loadCameraIni(d / "cam.ini"));
 }
 
 // Reliability (doc/reliability.md): a camera ini with only its section header names the missing key in one

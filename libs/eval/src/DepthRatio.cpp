@@ -5,8 +5,6 @@
 #include <fstream>
 #include <sstream>
 
-#include <mrpt/config/CConfigFileBase.h>
-
 #include "pslam/core/Error.h"
 #include "pslam/datasets/Rawlog.h"
 
@@ -36,24 +34,7 @@ std::vector<DepthSample> readDepthSamples(const std::filesystem::path& path) {
   return out;
 }
 
-void DepthRatioOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
-  tau = cfg.read_double(section, "dr_tau", tau);
-  scale = cfg.read_double(section, "dr_scale", scale);
-  maxTimeDifference = cfg.read_double(section, "dr_max_time_difference", maxTimeDifference);
-  check();
-}
-
-void DepthRatioOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "dr_tau", tau);
-  cfg.write(section, "dr_scale", scale);
-  cfg.write(section, "dr_max_time_difference", maxTimeDifference);
-}
-
-void DepthRatioOptions::check() const {
-  if (!(tau > 0.0) || !std::isfinite(tau)) throw Error("dr_tau: must be a finite value > 0");
-  if (!(scale > 0.0) || !std::isfinite(scale)) throw Error("dr_scale: must be a finite value > 0");
-  if (!(maxTimeDifference >= 0.0)) throw Error("dr_max_time_difference: must be >= 0");
-}
+PSLAM_DEFINE_PARAMS(DepthRatioOptions)
 
 nlohmann::json DepthRatioResult::toJson() const {
   return {{"ratio", ratio},

@@ -9,38 +9,11 @@
 
 namespace pslam::optimize {
 
-namespace {
-void requireKey(bool ok, const std::string& key, const std::string& what) {
-  if (!ok) throw Error("photometric parameter '" + key + "': " + what);
-}
-bool positiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
-}  // namespace
-
 double PhotometricParams::whiteningScale() const { return std::sqrt(etaP / etaR); }
 double PhotometricParams::whitenedHuberDelta() const { return huberFactor * std::sqrt(etaP) / std::sqrt(etaR); }
 double PhotometricParams::whitenedChi2Threshold() const { return chi2PerPixel * kPatternSize * etaP / etaR; }
 
-void PhotometricParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& s) {
-  etaR = cfg.read_double(s, "etaR", etaR);
-  etaP = cfg.read_double(s, "etaP", etaP);
-  huberFactor = cfg.read_double(s, "huberFactor", huberFactor);
-  chi2PerPixel = cfg.read_double(s, "chi2PerPixel", chi2PerPixel);
-  check();
-}
-
-void PhotometricParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& s) const {
-  cfg.write(s, "etaR", etaR);
-  cfg.write(s, "etaP", etaP);
-  cfg.write(s, "huberFactor", huberFactor);
-  cfg.write(s, "chi2PerPixel", chi2PerPixel);
-}
-
-void PhotometricParams::check() const {
-  requireKey(positiveFinite(etaR), "etaR", "must be finite and > 0");
-  requireKey(positiveFinite(etaP), "etaP", "must be finite and > 0");
-  requireKey(positiveFinite(huberFactor), "huberFactor", "must be finite and > 0");
-  requireKey(positiveFinite(chi2PerPixel), "chi2PerPixel", "must be finite and > 0");
-}
+PSLAM_DEFINE_PARAMS(PhotometricParams)
 
 std::array<Eigen::Vector3d, kPatternSize> patternRays(const DirectLandmark& point, const map::CameraIntrinsics& camera,
                                                      int level) {

@@ -1,7 +1,5 @@
 #include "pslam/priors/NormalSource.h"
 
-#include <mrpt/config/CConfigFile.h>
-
 #include "pslam/core/Error.h"
 #include "pslam/priors/NormalsFromDepth.h"
 #include "pslam/priors/NormalsFromNetwork.h"
@@ -62,29 +60,29 @@ class NetworkNormals final : public NormalSource {
 
 }  // namespace
 
-std::unique_ptr<NormalSource> makeNormalSource(const std::string& kind, const fs::path& iniPath) {
+void NormalSourceParams::resolvePaths(const fs::path& iniPath) {
+  if (!iniPath.empty()) network.resolvePaths(fs::absolute(iniPath).parent_path().string());
+}
+
+std::unique_ptr<NormalSource> makeNormalSource(const std::string& kind, const NormalSourceParams& params) {
   if (kind == "rawlog") return std::make_unique<RawlogNormals>();
-  if (kind != "depth" && kind != "network")
-    throw Error("normal source '" + kind + "': must be one of rawlog, depth, network");
-  if (kind == "depth" && iniPath.empty()) return std::make_unique<DepthNormals>(DepthNormalParams{});
-  require(!iniPath.empty(), "normal source 'network'", "needs an ini file with a [" +
-                                                           std::string(kNetworkNormalsSection) + "] section");
-  require(fs::is_regular_file(iniPath), iniPath.string(), "config file not found");
-  mrpt::config::CConfigFile cfg(iniPath.string());
-  try {
-    if (kind == "depth") {
-      DepthNormalParams p;
-      p.loadFromConfigFile(cfg, kDepthNormalsSection);
-      return std::make_unique<DepthNormals>(p);
-    }
-    require(cfg.sectionExists(kNetworkNormalsSection), iniPath.string(),
-            "missing section [" + std::string(kNetworkNormalsSection) + "]");
-    NetworkNormalParams p;
-    p.loadFromConfigFile(cfg, kNetworkNormalsSection, iniPath.parent_path().string());
-    return std::make_unique<NetworkNormals>(std::move(p));
-  } catch (const Error& e) {
-    throw Error(iniPath.string() + ": " + e.what());
+  if (kind == "depth") return std::make_unique<DepthNormals>(params.depth);
+  if (kind != "network") throw Error("normal source '" + kind + "': must be one of rawlog, depth, network");
+  require(!params.network.model.empty(), "normal source 'network'",
+          "needs a config file with a [" + std::string(kNetworkNormalsSection) + "] section naming the model");
+  return std::make_unique<NetworkNormals>(params.network);
+}
+
+std::unique_ptr<NormalSource> makeNormalSource(const std::string& kind, const fs::path& iniPath) {
+  NormalSourceParams p;
+  if (!iniPath.empty()) {
+    params::loadSectionsFromFile(p, iniPath.string());
+    p.resolvePaths(iniPath);
+    if (kind == "network" && p.network.model.empty())
+      throw Error(iniPath.string() + ": [" + kNetworkNormalsSection +
+                  "] model: missing (the network normal source needs it)");
   }
+  return makeNormalSource(kind, p);
 }
 
 }  // namespace pslam::priors

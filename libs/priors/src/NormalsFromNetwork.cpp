@@ -24,81 +24,53 @@ std::string resolve(const std::string& p, const std::string& baseDir) {
 
 void NetworkNormalParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& c, const std::string& s,
                                              const std::string& baseDir) {
-  model = resolve(c.read_string(s, "model", model), baseDir);
-  config = resolve(c.read_string(s, "config", config), baseDir);
-  framework = c.read_string(s, "framework", framework);
-  inputWidth = c.read_int(s, "inputWidth", inputWidth);
-  inputHeight = c.read_int(s, "inputHeight", inputHeight);
-  scale = c.read_double(s, "scale", scale);
-  mean[0] = c.read_double(s, "mean0", mean[0]);
-  mean[1] = c.read_double(s, "mean1", mean[1]);
-  mean[2] = c.read_double(s, "mean2", mean[2]);
-  swapRB = c.read_bool(s, "swapRB", swapRB);
-  normalsOutput = c.read_string(s, "normalsOutput", normalsOutput);
-  axisMapping = c.read_string(s, "axisMapping", axisMapping);
-  outputScale = c.read_double(s, "outputScale", outputScale);
-  outputOffset = c.read_double(s, "outputOffset", outputOffset);
-  planarChannel = c.read_int(s, "planarChannel", planarChannel);
-  planarThreshold = c.read_double(s, "planarThreshold", planarThreshold);
-  orientTowardsCamera = c.read_bool(s, "orientTowardsCamera", orientTowardsCamera);
-  check();
+  params::load(*this, c, s);
+  resolvePaths(baseDir);
 }
 
 void NetworkNormalParams::saveToConfigFile(mrpt::config::CConfigFileBase& c, const std::string& s) const {
-  c.write(s, "model", model);
-  c.write(s, "config", config);
-  c.write(s, "framework", framework);
-  c.write(s, "inputWidth", inputWidth);
-  c.write(s, "inputHeight", inputHeight);
-  c.write(s, "scale", scale);
-  c.write(s, "mean0", mean[0]);
-  c.write(s, "mean1", mean[1]);
-  c.write(s, "mean2", mean[2]);
-  c.write(s, "swapRB", swapRB);
-  c.write(s, "normalsOutput", normalsOutput);
-  c.write(s, "axisMapping", axisMapping);
-  c.write(s, "outputScale", outputScale);
-  c.write(s, "outputOffset", outputOffset);
-  c.write(s, "planarChannel", planarChannel);
-  c.write(s, "planarThreshold", planarThreshold);
-  c.write(s, "orientTowardsCamera", orientTowardsCamera);
+  params::save(*this, c, s);
 }
 
-std::array<NetworkNormalParams::Axis, 3> NetworkNormalParams::parsedAxes() const {
-  std::array<Axis, 3> axes{};
-  std::stringstream ss(axisMapping);
+void NetworkNormalParams::check() const { params::check(*this, kSection); }
+
+void NetworkNormalParams::resolvePaths(const std::string& baseDir) {
+  model = resolve(model, baseDir);
+  config = resolve(config, baseDir);
+}
+
+std::optional<std::string> NetworkNormalParams::axisMappingProblem(const std::string& mapping) {
+  std::stringstream ss(mapping);
   std::string tok;
   int k = 0;
+  bool used[3] = {false, false, false};
   while (std::getline(ss, tok, ',')) {
     tok.erase(0, tok.find_first_not_of(" \t"));
     tok.erase(tok.find_last_not_of(" \t") + 1);
-    require(k < 3, kCtx, "axisMapping '" + axisMapping + "' must have exactly three entries");
-    double sign = 1.0;
-    if (!tok.empty() && (tok[0] == '-' || tok[0] == '+')) {
-      sign = tok[0] == '-' ? -1.0 : 1.0;
-      tok = tok.substr(1);
-    }
-    require(tok == "x" || tok == "y" || tok == "z", kCtx,
-            "axisMapping entry '" + tok + "' must be [+|-]x, y or z");
-    axes[static_cast<std::size_t>(k++)] = {tok[0] - 'x', sign};
+    if (k == 3) return "must have exactly three entries";
+    if (!tok.empty() && (tok[0] == '-' || tok[0] == '+')) tok = tok.substr(1);
+    if (tok != "x" && tok != "y" && tok != "z") return "entry '" + tok + "' must be [+|-]x, y or z";
+    if (used[tok[0] - 'x']) return "must use each of x, y, z once";
+    used[tok[0] - 'x'] = true;
+    ++k;
   }
-  require(k == 3, kCtx, "axisMapping '" + axisMapping + "' must have exactly three entries");
-  require(axes[0].channel != axes[1].channel && axes[0].channel != axes[2].channel &&
-              axes[1].channel != axes[2].channel,
-          kCtx, "axisMapping '" + axisMapping + "' must use each of x, y, z once");
-  return axes;
+  if (k != 3) return "must have exactly three entries";
+  return std::nullopt;
 }
 
-void NetworkNormalParams::check() const {
-  require(!model.empty(), kCtx, "model must be set");
-  require(inputWidth > 0 && inputHeight > 0, kCtx, "inputWidth and inputHeight must be > 0");
-  require(std::isfinite(scale) && scale != 0, kCtx, "scale must be finite and non-zero");
-  for (double m : mean) require(std::isfinite(m), kCtx, "mean0..mean2 must be finite");
-  require(std::isfinite(outputScale) && outputScale != 0, kCtx, "outputScale must be finite and non-zero");
-  require(std::isfinite(outputOffset), kCtx, "outputOffset must be finite");
-  require(planarChannel == -1 || planarChannel >= 3, kCtx, "planarChannel must be -1 or >= 3");
-  require(std::isfinite(planarThreshold), kCtx, "planarThreshold must be finite");
-  parsedAxes();
+std::array<NetworkNormalParams::Axis, 3> NetworkNormalParams::parsedAxes() const {
+  if (auto why = axisMappingProblem(axisMapping))
+    throw Error(std::string(kCtx) + ": axisMapping '" + axisMapping + "' " + *why);
+  std::array<Axis, 3> axes{};
+  std::stringstream ss(axisMapping);
+  std::string tok;
+  for (std::size_t k = 0; k < 3 && std::getline(ss, tok, ','); ++k) {
+    tok.erase(0, tok.find_first_not_of(" \t"));
+    const double sign = !tok.empty() && tok[0] == '-' ? -1.0 : 1.0;
+    if (!tok.empty() && (tok[0] == '-' || tok[0] == '+')) tok = tok.substr(1);
+    axes[k] = {tok[0] - 'x', sign};
+  }
+  return axes;
 }
 
 struct NetworkNormalEstimator::Impl {
@@ -108,6 +80,8 @@ struct NetworkNormalEstimator::Impl {
 NetworkNormalEstimator::NetworkNormalEstimator(NetworkNormalParams params)
     : params_(std::move(params)), impl_(std::make_unique<Impl>()) {
   params_.check();
+  if (params_.model.empty())
+    throw params::ParamError(NetworkNormalParams::kSection, "model", "", "missing (the network's weights file)");
   require(fs::exists(params_.model), params_.model, "network model file not found");
   require(params_.config.empty() || fs::exists(params_.config), params_.config, "network config file not found");
   try {

@@ -4,7 +4,6 @@
 #include <mutex>
 #include <sstream>
 
-#include <mrpt/config/CConfigFile.h>
 #include <mrpt/config/CConfigFileBase.h>
 #include <opencv2/dnn.hpp>
 #include <opencv2/dnn/layer.details.hpp>
@@ -68,65 +67,31 @@ class EnetUpsampleLayer final : public cv::dnn::Layer {
 
 void SemanticNetworkParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section,
                                                const std::filesystem::path& baseDir) {
-  const std::string ctx = "[" + section + "] ";
-  model = resolve(cfg.read_string(section, "model", model.string()), baseDir);
-  config = resolve(cfg.read_string(section, "config", config.string()), baseDir);
-  framework = cfg.read_string(section, "framework", framework);
-  inputWidth = cfg.read_int(section, "inputWidth", inputWidth);
-  inputHeight = cfg.read_int(section, "inputHeight", inputHeight);
-  scale = cfg.read_double(section, "scale", scale);
-  const std::string meanText = cfg.read_string(section, "mean", "");
-  if (!meanText.empty()) {
-    std::istringstream is(meanText);
-    double m0, m1, m2;
-    if (!(is >> m0 >> m1 >> m2)) throw Error(ctx + "mean: expected three numbers, got '" + meanText + "'");
-    mean = cv::Scalar(m0, m1, m2);
-  }
-  swapRB = cfg.read_bool(section, "swapRB", swapRB);
-  softmax = cfg.read_bool(section, "softmax", softmax);
-  outputLayer = cfg.read_string(section, "outputLayer", outputLayer);
-  classMap = cfg.read_string(section, "classMap", classMap);
+  params::load(*this, cfg, section);
+  model = resolve(model.string(), baseDir);
+  config = resolve(config.string(), baseDir);
   if (classMap != "cityscapes") classMap = resolve(classMap, baseDir).string();
   check();
 }
 
 void SemanticNetworkParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "model", model.string());
-  cfg.write(section, "config", config.string());
-  cfg.write(section, "framework", framework);
-  cfg.write(section, "inputWidth", inputWidth);
-  cfg.write(section, "inputHeight", inputHeight);
-  cfg.write(section, "scale", scale);
-  std::ostringstream m;
-  m << mean[0] << " " << mean[1] << " " << mean[2];
-  cfg.write(section, "mean", m.str());
-  cfg.write(section, "swapRB", swapRB ? "true" : "false");
-  cfg.write(section, "softmax", softmax ? "true" : "false");
-  cfg.write(section, "outputLayer", outputLayer);
-  cfg.write(section, "classMap", classMap);
+  params::save(*this, cfg, section);
 }
 
 void SemanticNetworkParams::check() const {
-  if (model.empty()) throw Error("SemanticNetworkParams: model: missing");
-  if (!std::filesystem::is_regular_file(model)) throw Error("SemanticNetworkParams: model: file not found: " + model.string());
+  params::check(*this, kSection);
+  if (model.empty()) throw params::ParamError(kSection, "model", "", "missing (the network's weights file)");
+  if (!std::filesystem::is_regular_file(model))
+    throw params::ParamError(kSection, "model", model.string(), "file not found");
   if (!config.empty() && !std::filesystem::is_regular_file(config))
-    throw Error("SemanticNetworkParams: config: file not found: " + config.string());
-  if (inputWidth <= 0 || inputHeight <= 0) throw Error("SemanticNetworkParams: inputWidth/inputHeight: must be > 0");
-  if (!(std::isfinite(scale) && scale > 0)) throw Error("SemanticNetworkParams: scale: must be finite and > 0");
-  for (int c = 0; c < 3; ++c)
-    if (!std::isfinite(mean[c])) throw Error("SemanticNetworkParams: mean: must be finite");
-  if (classMap.empty()) throw Error("SemanticNetworkParams: classMap: missing");
+    throw params::ParamError(kSection, "config", config.string(), "file not found");
 }
 
 SemanticNetworkParams SemanticNetworkParams::loadFromFile(const std::filesystem::path& iniPath) {
-  if (!std::filesystem::is_regular_file(iniPath)) throw Error(iniPath.string() + ": network config not found");
-  mrpt::config::CConfigFile cfg(iniPath.string());
   SemanticNetworkParams p;
-  try {
-    p.loadFromConfigFile(cfg, "SemanticNetwork", std::filesystem::absolute(iniPath).parent_path());
-  } catch (const Error& e) {
-    throw Error(iniPath.string() + ": " + e.what());
-  }
+  params::loadConfigFile(iniPath.string(), {kSection}, [&](const mrpt::config::CConfigFileBase& cfg) {
+    p.loadFromConfigFile(cfg, kSection, std::filesystem::absolute(iniPath).parent_path());
+  });
   return p;
 }
 
@@ -165,7 +130,8 @@ cv::Mat SemanticNetwork::scores(const cv::Mat& image) {
   else
     bgr = image;
   const cv::Mat blob = cv::dnn::blobFromImage(bgr, params_.scale, cv::Size(params_.inputWidth, params_.inputHeight),
-                                              params_.mean, params_.swapRB, /*crop=*/false, CV_32F);
+                                              cv::Scalar(params_.mean[0], params_.mean[1], params_.mean[2]),
+                                              params_.swapRB, /*crop=*/false, CV_32F);
   cv::Mat out;
   try {
     impl_->net.setInput(blob);

@@ -146,7 +146,18 @@ TEST(NormalsFromNetwork, BadConfigurationsNameTheProblem) {
     std::ofstream ini(dir.path / "empty.ini");
     ini << "[Other]\nx = 1\n";
   }
-  EXPECT_THROW(makeNormalSource("network", dir.path / "empty.ini"), pslam::Error);
+  EXPECT_THROW(makeNormalSource("network", dir.path / "empty.ini"), pslam::Error);  // [Other]: unknown section
+  {
+    std::ofstream ini(dir.path / "depth_only.ini");
+    ini << "[NormalsFromDepth]\nminDepth = 0.2\n";
+  }
+  try {
+    makeNormalSource("network", dir.path / "depth_only.ini");
+    FAIL();
+  } catch (const pslam::Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              (dir.path / "depth_only.ini").string() + ": [NormalsFromNetwork] model: missing (the network normal source needs it)");
+  }
   EXPECT_THROW(makeNormalSource("network", ""), pslam::Error);
   // A model that is not a network at all.
   { std::ofstream(dir.path / "junk.weights") << "not a network"; }
@@ -154,4 +165,28 @@ TEST(NormalsFromNetwork, BadConfigurationsNameTheProblem) {
   p.model = (dir.path / "junk.weights").string();
   p.config = (dir.path / "junk.cfg").string();
   EXPECT_THROW(NetworkNormalEstimator{p}, pslam::Error);
+}
+
+TEST(NormalsFromNetwork, SectionReadStrictly) {
+  TempDir dir;
+  const auto errorFor = [&](const std::string& text) {
+    std::ofstream(dir.path / "n.ini") << text;
+    try {
+      makeNormalSource("depth", dir.path / "n.ini");
+    } catch (const pslam::Error& e) {
+      const std::string what = e.what(), f = (dir.path / "n.ini").string();
+      return what.rfind(f, 0) == 0 ? "F" + what.substr(f.size()) : what;
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorFor("[NormalsFromNetwork]\nmodel = m.onnx\nframework = ONNX\n"), "");
+  EXPECT_EQ(errorFor("[NormalsFromNetwork]\nframework = bogus\n"),
+            "F: [NormalsFromNetwork] framework = bogus: must be empty (from the model's file extension) or one of caffe, "
+            "tensorflow, torch, darknet, dldt, onnx");
+  EXPECT_EQ(errorFor("[NormalsFromNetwork]\nmean0 = abc\n"), "F: [NormalsFromNetwork] mean0 = abc: not a number");
+  EXPECT_EQ(errorFor("[NormalsFromNetwork]\ninputWidth = 256.5\n"), "F: [NormalsFromNetwork] inputWidth = 256.5: not an integer");
+  EXPECT_EQ(errorFor("[NormalsFromNetwork]\nswapRB = maybe\n"),
+            "F: [NormalsFromNetwork] swapRB = maybe: not a bool (true or false)");
+  EXPECT_EQ(errorFor("[NormalsFromNetwork]\naxisMapping = x,-y,w\n"),
+            "F: [NormalsFromNetwork] axisMapping = x,-y,w: entry 'w' must be [+|-]x, y or z");
 }

@@ -86,3 +86,33 @@ TEST(SemanticClassMap, ErrorsNameFileAndKey) {
   expectError("[SemanticClassMap]\nnumClasses = 1\nclass0 = road\n", "class0");
   EXPECT_THROW(SemanticClassMap::loadFromFile("/nonexistent/map.ini"), pslam::Error);
 }
+
+// The class map is read strictly although its keys are no fixed list (class0 ... class<numClasses-1>).
+TEST(SemanticClassMap, ReadStrictly) {
+  const auto p = tempIni("strict", "");
+  const auto errorFor = [&](const std::string& text) {
+    std::ofstream(p) << text;
+    try {
+      SemanticClassMap::loadFromFile(p);
+    } catch (const pslam::Error& e) {
+      const std::string what = e.what();
+      return what.rfind(p.string(), 0) == 0 ? "F" + what.substr(p.string().size()) : what;
+    }
+    return std::string();
+  };
+  const std::string head = "[SemanticClassMap]\nnumClasses = 2\nclass0 = road static\nclass1 = car dynamic\n";
+  EXPECT_EQ(errorFor(head), "");
+  EXPECT_EQ(errorFor(head + "class2 = sky invalid\n"),
+            "F: [SemanticClassMap] class2: unknown key (numClasses = 2: class0 ... class1)");
+  EXPECT_EQ(errorFor(head + "unlabled = invalid\n"), "F: [SemanticClassMap] unlabled: unknown key (did you mean unlabeled?)");
+  EXPECT_EQ(errorFor(head + "unlabeled = invalid extra\n"),
+            "F: [SemanticClassMap] unlabeled = invalid extra: group 'invalid extra' unknown (expected static, dynamic or invalid)");
+  EXPECT_EQ(errorFor("[SemanticClassMap]\nnumClasses = 2.5\n"), "F: [SemanticClassMap] numClasses = 2.5: not an integer");
+  EXPECT_EQ(errorFor("[SemanticClassMap]\nnumClasses = 2000000000\n"),
+            "F: [SemanticClassMap] numClasses = 2000000000: must be in [1, 256]");
+  EXPECT_EQ(errorFor("[SemanticClassMap]\nname = x\n"), "F: [SemanticClassMap] numClasses: missing");
+  EXPECT_EQ(errorFor(head + "[Other]\nx = 1\n"), "F: [Other]: unknown section (did you mean SemanticClassMap?)");
+  EXPECT_EQ(errorFor("numClasses = 2\n"),
+            "F:1: numClasses: key outside any section (the file needs a [Section] header before it)");
+  fs::remove(p);
+}

@@ -21,10 +21,9 @@ std::string SlamParams::toIniText() const {
 }
 
 SlamParams loadSlamParams(const std::string& iniPath, const std::vector<std::string>& overrides) {
-  mrpt::config::CConfigFileMemory cfg(params::readConfigText(iniPath));
-  params::applyOverrides(cfg, overrides);
   SlamParams p;
-  params::withSource(iniPath, overrides, [&] { p.loadFromConfigFile(cfg); });
+  params::loadConfigFile(iniPath, params::sectionsOf(p),
+                         [&](const mrpt::config::CConfigFileBase& cfg) { p.loadFromConfigFile(cfg); }, overrides);
   return p;
 }
 

@@ -197,6 +197,15 @@ TEST(SlamParams, ErrorsFromAFileNameTheFile) {
             path.string() + ": [Tracking] maxLocalKeyframes: unknown key (did you mean maxLocalKeyFrames?)");
   std::ofstream(path) << "[Tracking]\nminPoseInliers = 1\n";
   EXPECT_EQ(loadError(path.string(), {}), path.string() + ": [Tracking] minPoseInliers = 1: must be >= 3");
+  // Out of range: 2e9 fits an int, but featureFactor x nFeatures (the initializer's budget) did not.
+  std::ofstream(path) << "[ORB]\nnFeatures = 2000000000\n";
+  EXPECT_EQ(loadError(path.string(), {}), path.string() + ": [ORB] nFeatures = 2000000000: must be in [1, 1000000]");
+  // A file without section headers.
+  std::ofstream(path) << "# no header\nnFeatures = 2000\n";
+  EXPECT_EQ(loadError(path.string(), {}),
+            path.string() + ":2: nFeatures: key outside any section (the file needs a [Section] header before it)");
+  std::ofstream(path) << "[ORB]\nnFeatures = 1000\n[Tracking]\nminPoseInliers = 10\n[ORB]\nnLevels = 4\n";
+  EXPECT_EQ(loadError(path.string(), {}), path.string() + ":5: [ORB]: section appears twice (first as [ORB] on line 1)");
   fs::remove(path);
 }
 

@@ -6,11 +6,13 @@
 #include <cstddef>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <mrpt/config/CConfigFileBase.h>
 
+#include "pslam/core/Params.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/datasets/DatasetIndex.h"
 
@@ -47,13 +49,53 @@ struct Dataset2RawlogOptions {
   bool iclRawPoses = false;          ///< keep ICL-NUIM poses in the renderer's y-up frame
   bool progress = true;
 
-  /// Keys: the member names in snake_case (input, out_dir, name, format, first, last, count, stride, color,
-  /// image_format, camera_ini, camera_section, intrinsics, distortion, tum_camera, rate, first_stamp,
-  /// max_depth_diff, gt_max_gap, no_depth, kitti_camera, euroc_camera, poses, times, icl_raw_poses, progress).
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the offending key.
-  void check() const;
+  /// Keys: the member names in snake_case (pslam/core/Params.h: strict, unknown keys are errors). The
+  /// command-line options of dataset2rawlog set the same fields and are checked by the same rules.
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, input, anyValue, "dataset folder (required)");
+    PSLAM_KEY(v, "out_dir", outDir, anyValue, "output folder (required)");
+    PSLAM_FIELD(v, name, satisfies([](const std::string& n) { return n.find('/') == std::string::npos; },
+                                   "must be a base name, not a path"),
+                "output base name (empty = from the input folder)");
+    PSLAM_FIELD(v, format, oneOf({"auto", "tum", "icl", "kitti", "euroc", "folder"}), "dataset format");
+    PSLAM_FIELD(v, first, anyValue, "first frame (0-based)");
+    PSLAM_FIELD(v, last, satisfies([this](std::size_t l) { return l >= first; }, "must not be before first"),
+                "last frame, inclusive");
+    PSLAM_FIELD(v, count, anyValue, "at most this many frames after stride (0 = all)");
+    PSLAM_FIELD(v, stride, atLeast(1), "keep every n-th frame");
+    PSLAM_FIELD(v, color, oneOf({"keep", "grey", "gray", "colour", "color"}), "CAMERA image colour");
+    PSLAM_KEY(v, "image_format", imageFormat, oneOf({"png", "bmp", "tiff", "ppm", "pgm"}), "lossless image format");
+    PSLAM_KEY(v, "camera_ini", cameraIni, anyValue, "MRPT TCamera ini (config/cameras/*.ini)");
+    PSLAM_KEY(v, "camera_section", cameraSection, nonEmpty, "section of camera_ini");
+    PSLAM_FIELD(v, intrinsics, custom([this](const std::vector<double>& k) { return intrinsicsProblem(k); },
+                                      "4 finite values fx, fy, cx, cy; not with camera_ini"),
+                "fx fy cx cy (resolution from the first image)");
+    PSLAM_FIELD(v, distortion, custom([this](const std::vector<double>& d) { return distortionProblem(d); },
+                                      "at most 5 finite values k1, k2, p1, p2, k3; only with intrinsics"),
+                "k1 k2 p1 p2 [k3] (plumb_bob) with intrinsics");
+    PSLAM_KEY(v, "tum_camera", tumCamera, oneOf({"", "fr1", "fr2", "fr3"}), "TUM calibration (empty = from the folder)");
+    PSLAM_FIELD(v, rate, atLeast(0), "[Hz] KITTI without times.txt, ICL-NUIM, image folder");
+    PSLAM_KEY(v, "first_stamp", firstStamp, finite(), "[s] stamp of the first image (image folder)");
+    PSLAM_KEY(v, "max_depth_diff", maxDepthDiff, greaterThan(0), "[s] TUM RGB/depth association window");
+    PSLAM_KEY(v, "gt_max_gap", gtMaxGap, atLeast(0), "[s] no ground truth interpolated across longer holes (0 = no limit)");
+    PSLAM_KEY(v, "no_depth", noDepth, anyValue, "do not write DEPTH observations");
+    PSLAM_KEY(v, "kitti_camera", kittiCamera,
+              satisfies([](int c) { return c == -1 || c == 0 || c == 2; }, "must be 0, 2 or -1 (auto)"), "KITTI camera");
+    PSLAM_KEY(v, "euroc_camera", eurocCamera, oneOf({"cam0", "cam1"}), "EuRoC camera folder");
+    PSLAM_KEY(v, "poses", posesFile, anyValue, "ground-truth file (KITTI poses, ICL *.gt.freiburg, TUM for a folder)");
+    PSLAM_KEY(v, "times", timesFile, anyValue, "KITTI times file");
+    PSLAM_KEY(v, "icl_raw_poses", iclRawPoses, anyValue, "keep ICL-NUIM poses in the renderer's y-up frame");
+    PSLAM_FIELD(v, progress, anyValue, "progress on the terminal");
+  }
+  /// loadFromConfigFile / saveToConfigFile (section default dataset2rawlog); check() throws params::ParamError
+  /// naming the offending key (input and out_dir must be set).
+  PSLAM_PARAMS("dataset2rawlog")
+
+ private:
+  std::optional<std::string> intrinsicsProblem(const std::vector<double>& k) const;
+  std::optional<std::string> distortionProblem(const std::vector<double>& d) const;
 };
 
 struct Dataset2RawlogSummary {

@@ -8,6 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "pslam/manhattan/ManhattanTracker.h"
+#include "pslam/priors/NormalSource.h"
+
 namespace pslam::manhattan {
 
 struct ManhattanEvalOptions {
@@ -26,15 +29,31 @@ struct ManhattanEvalOptions {
   bool progress = true;
 };
 
+inline constexpr const char* kTrackerSection = "ManhattanTracker";
+
+/// The sections of a manhattan-eval ini (config/manhattan/*.ini): the tracker's and the normal sources'.
+struct ManhattanEvalConfig {
+  ManhattanParams tracker;
+  priors::NormalSourceParams normals;
+  template <class V>
+  void visitSections(V& v) {
+    v.section(kTrackerSection, tracker);
+    normals.visitSections(v);
+  }
+  /// Strict (pslam/core/Params.h): unknown sections and keys, values of the wrong type or range are errors
+  /// naming the file, section and key. Empty path: the defaults.
+  static ManhattanEvalConfig loadFromFile(const std::filesystem::path& path);
+};
+
 struct ManhattanEvalResult {
   nlohmann::json report;  ///< configuration, per-frame records, summary
   std::string text;       ///< human-readable summary table
 };
 
-/// Throws pslam::Error naming the file/frame on bad input. The outputs (JSON, text, plot) are checked before the
-/// run (none may be an input or replace a folder) and either all are written or none.
+/// Throws pslam::Error naming the file/frame on bad input (and the option: --normal-stride, --max-gt-dt). The
+/// outputs (JSON, text, plot) are checked before the run (none may be an input or replace a folder) and either
+/// all are written or none.
 ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& options);
 
-inline constexpr const char* kTrackerSection = "ManhattanTracker";
 
 }  // namespace pslam::manhattan

@@ -6,6 +6,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "pslam/manhattan/ManhattanTracker.h"
+#include "pslam/priors/NormalSource.h"
+
 namespace pslam::priors {
 
 struct NormalPriorsOptions {
@@ -15,6 +18,21 @@ struct NormalPriorsOptions {
   std::filesystem::path config;  ///< ini with [NormalsFromDepth] / [NormalsFromNetwork]; empty = defaults
   bool planarOnly = true;        ///< store normals only inside the planar mask (thesis §4.2)
   bool progress = true;
+};
+
+/// The sections normal-priors accepts in its --config: the normal sources' and, because the same files
+/// configure manhattan-eval (config/manhattan/*.ini), [ManhattanTracker], which is checked too (a bad value is
+/// reported by whichever tool reads the file) but not used.
+struct NormalPriorsConfig {
+  NormalSourceParams normals;
+  manhattan::ManhattanParams tracker;
+  template <class V>
+  void visitSections(V& v) {
+    normals.visitSections(v);
+    v.section("ManhattanTracker", tracker);
+  }
+  /// Strict (pslam/core/Params.h): errors name the file, section and key. Empty path: the defaults.
+  static NormalPriorsConfig loadFromFile(const std::filesystem::path& path);
 };
 
 struct NormalPriorsResult {

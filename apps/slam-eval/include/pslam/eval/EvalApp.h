@@ -2,6 +2,8 @@
 // The slam-eval application: reads a ground-truth and an estimated trajectory, associates, aligns and
 // reports ATE, RPE, RE (and DR when map-point depths and a rawlog with DEPTH are given) as a text table,
 // JSON and PNG plots. main() in apps/slam-eval only parses the command line into EvalOptions.
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <filesystem>
 #include <iosfwd>
@@ -14,17 +16,33 @@
 #include <nlohmann/json.hpp>
 
 #include "pslam/core/AtomicFile.h"
+#include "pslam/core/Params.h"
 #include "pslam/eval/Association.h"
 #include "pslam/eval/DepthRatio.h"
 #include "pslam/eval/Metrics.h"
 #include "pslam/eval/Plot.h"
 #include "pslam/eval/TrajectoryIO.h"
 
-namespace mrpt::config {
-class CConfigFileBase;
-}
-
 namespace pslam::eval {
+
+/// The names of the options' enums in an ini file (the first of a value is the one written).
+constexpr std::array<std::pair<AssociationRule, const char*>, 5> enumNames(AssociationRule) {
+  return {{{AssociationRule::Nearest, "nearest"},
+           {AssociationRule::Nearest, "evo"},
+           {AssociationRule::OneToOneGreedy, "tum"},
+           {AssociationRule::OneToOneGreedy, "one-to-one"},
+           {AssociationRule::ByIndex, "index"}}};
+}
+constexpr std::array<std::pair<AlignmentMode, const char*>, 3> enumNames(AlignmentMode) {
+  return {{{AlignmentMode::None, "none"}, {AlignmentMode::SE3, "se3"}, {AlignmentMode::Sim3, "sim3"}}};
+}
+constexpr std::array<std::pair<DeltaUnit, const char*>, 5> enumNames(DeltaUnit) {
+  return {{{DeltaUnit::Frames, "frames"},
+           {DeltaUnit::Frames, "f"},
+           {DeltaUnit::Meters, "m"},
+           {DeltaUnit::Meters, "meters"},
+           {DeltaUnit::Meters, "metres"}}};
+}
 
 struct EvalOptions {
   TrajectoryFormat gtFormat = TrajectoryFormat::Auto;
@@ -42,14 +60,36 @@ struct EvalOptions {
   DepthRatioOptions depthRatio;
   bool depthUseAlignmentScale = false;  ///< multiply estimated depths by the Sim(3) scale
 
-  /// Keys (section e.g. "slam_eval"): association (nearest|tum|index), max_time_difference, time_offset,
-  /// alignment (none|se3|sim3), align_first_n, rpe (bool), rpe_delta, rpe_delta_unit (frames|m),
-  /// rpe_all_pairs, rpe_relative_tolerance, rotation_error (bool), dr_tau, dr_scale, dr_max_time_difference,
-  /// dr_use_alignment_scale.
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the key of a nonsensical value.
-  void check() const;
+  /// The ini keys (section e.g. [slam_eval], pslam/core/Params.h: strict, unknown keys are errors). The input
+  /// files (formats, times, DR inputs) come from the command line only.
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_KEY(v, "association", association.rule, anyValue, "nearest (evo) | tum (associate.py, one-to-one) | index");
+    PSLAM_KEY(v, "max_time_difference", association.maxTimeDifference, atLeast(0),
+              "[s] association window (evo's max_diff)");
+    PSLAM_KEY(v, "time_offset", association.offset, finite(), "[s] added to the estimate's stamps");
+    PSLAM_KEY(v, "alignment", alignment, anyValue, "none | se3 | sim3 (monocular default)");
+    PSLAM_KEY(v, "align_first_n", alignFirstN, anyValue, "align on the first N pairs only (0 = all)");
+    PSLAM_KEY(v, "rpe", rpe, anyValue, "compute the RPE");
+    PSLAM_KEY(v, "rpe_delta", rpeOptions.delta,
+              satisfies([this](double d) {
+                return std::isfinite(d) && d > 0 && (rpeOptions.unit != DeltaUnit::Frames || d == std::floor(d));
+              }, "must be > 0 (a whole number when rpe_delta_unit = frames)"),
+              "RPE delta");
+    PSLAM_KEY(v, "rpe_delta_unit", rpeOptions.unit, anyValue, "frames | m");
+    PSLAM_KEY(v, "rpe_all_pairs", rpeOptions.allPairs, anyValue, "RPE over all pairs with the delta");
+    PSLAM_KEY(v, "rpe_relative_tolerance", rpeOptions.relativeTolerance, atLeast(0),
+              "[m] RPE delta tolerance (all pairs, unit m)");
+    PSLAM_KEY(v, "rotation_error", rotationError, anyValue, "compute RE (eq. 4.8)");
+    PSLAM_KEY(v, "dr_use_alignment_scale", depthUseAlignmentScale,
+              satisfies([this](bool b) { return !b || alignment == AlignmentMode::Sim3; }, "needs alignment = sim3"),
+              "multiply estimated depths by the Sim(3) scale");
+    v.flat(depthRatio);
+  }
+  /// loadFromConfigFile / saveToConfigFile (section default slam_eval); check() throws params::ParamError naming
+  /// the key of a nonsensical value, or pslam::Error when only one of the DR inputs is given.
+  PSLAM_PARAMS("slam_eval")
   nlohmann::json toJson() const;
 };
 

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "pslam/core/Params.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/synth/Renderer.h"
 #include "pslam/synth/Scenarios.h"
@@ -43,10 +44,37 @@ struct SynthOptions {
   int threads = 1;                ///< renderer threads (output identical for any count)
   bool progress = true;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the key at fault.
-  void check() const;
+  /// The ini keys of [synth] (pslam/core/Params.h: strict, unknown keys are errors); the command-line options
+  /// of slam-synth set the same fields and are checked by the same rules (params::cliCheckKey).
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, scenario, oneOf(scenarioNames()), "scenario preset");
+    PSLAM_FIELD(v, frames, inClosed(0, 1000000), "number of frames (0 = the scenario's default)");
+    PSLAM_FIELD(v, width, inClosed(8, 8192), "image width");
+    PSLAM_FIELD(v, height, inClosed(8, 8192), "image height");
+    PSLAM_FIELD(v, fx, atLeast(0), "focal length x in pixels (0 = scenario default scaled to the width)");
+    PSLAM_FIELD(v, fy, atLeast(0), "focal length y in pixels (0 = fx)");
+    PSLAM_FIELD(v, cx, finite(), "principal point x (negative = (width-1)/2)");
+    PSLAM_FIELD(v, cy, finite(), "principal point y (negative = (height-1)/2)");
+    PSLAM_FIELD(v, seed, anyValue, "seed of textures, placements, traffic, jitter, noise");
+    PSLAM_KEY(v, "texture", textured, anyValue, "procedural textures (false: white surfaces, shading only)");
+    PSLAM_KEY(v, "noise_sigma", noiseSigma, inClosed(0, 100), "Gaussian image noise std in grey levels");
+    PSLAM_FIELD(v, exposure, anyValue, "per-frame affine brightness change");
+    PSLAM_FIELD(v, supersampling, inClosed(1, 8), "N x N samples per pixel for anti-aliasing");
+    PSLAM_KEY(v, "anti_aliasing", antiAliasing, oneOf({"silhouettes", "adaptive", "full"}), "anti-aliasing mode");
+    PSLAM_KEY(v, "aa_contrast", aaContrast, greaterThan(0), "adaptive anti-aliasing: contrast (grey levels)");
+    PSLAM_KEY(v, "out_dir", outDir, anyValue, "output folder (required, here or on the command line)");
+    PSLAM_FIELD(v, name,
+                satisfies([](const std::string& n) { return n.find_first_of("/\\") == std::string::npos && n != "." && n != ".."; },
+                          "must be a plain file stem"),
+                "file stem of the outputs (empty = the scenario name)");
+    PSLAM_KEY(v, "preview_frame", previewFrame, atLeast(-1), "frame of --preview (-1 = the middle frame)");
+    PSLAM_FIELD(v, threads, inClosed(1, 64), "renderer threads (the output is identical for any count)");
+  }
+  /// loadFromConfigFile / saveToConfigFile (section default synth); check() throws params::ParamError naming
+  /// the key at fault (out_dir must be set).
+  PSLAM_PARAMS("synth")
   std::string effectiveName() const { return name.empty() ? scenario : name; }
   PinholeCamera camera() const;
   AntiAliasing antiAliasingMode() const;

@@ -23,7 +23,9 @@
 //                                             round-trip formatting of doubles and floats);
 //   check()                                   every rule, in list order.
 //
-// Keys. The key of a field is its C++ name (PSLAM_FIELD stringifies the member). Nested structs:
+// Keys. The key of a field is its C++ name (PSLAM_FIELD stringifies the member); PSLAM_KEY(v, "key", member,
+// rule, doc) gives another key (the tools' options: `max_time_difference` for association.maxTimeDifference).
+// Nested structs:
 //   v.flat(sub)              the fields of `sub` are keys of the same section under their own names;
 //   PSLAM_NESTED(v, sub)     ... under `sub.<field>`: used when leaf names of two nested structs would collide
 //                            ([Tracking] keyFrames.minInliers and pnp.minInliers); every struct in the
@@ -35,15 +37,24 @@
 // Values. Text after whitespace + `;`, `#` or `//` is a comment. int/unsigned/size_t/...: a whole decimal
 // number inside the range of the C++ type; double/float: a decimal number or inf/-inf (never nan); bool:
 // true/false, yes/no, on/off, 1/0; enums: one of their names (enumNames() found by argument-dependent lookup,
-// case-insensitive); std::string: the text.
+// case-insensitive); std::string and std::filesystem::path: the text; std::vector<double> and
+// std::array<double, N>: numbers separated by commas or spaces (an array exactly N).
 //
 // Errors are ParamError, one format:  `[Section] key = value: reason`  (e.g. `[Tracking] minPoseInliers = 1:
 // must be >= 3`), `[Section] key: unknown key (did you mean maxLocalKeyFrames?)`, `[Sectoin]: unknown section
-// (did you mean Section?)`. readConfigText() + applyOverrides() + withSource() put the file name (or the
-// override text) in front: `config/slam/kitti.ini: [Tracking] ...`.
+// (did you mean Section?)`.
+//
+// Files. loadConfigFile() (or loadSectionsFromFile() / loadSectionFromFile()) is how every tool reads its ini:
+// readConfigText() checks the file's structure (checkIniSyntax(): keys outside a section, lines that are not
+// `key = value`, a key or section given twice are errors `<file>:<line>: ...`), applyOverrides() applies
+// `Section.key=value` texts, unknown sections are rejected, and withSource() puts the file name (or the override
+// text) in front of every error: `config/slam/kitti.ini: [Tracking] ...`. Command-line numbers are checked with
+// the same parsing and rules by cliCheck() (CLI11 Option::check).
 #include <cmath>
+#include <array>
 #include <cstdint>
 #include <algorithm>
+#include <filesystem>
 #include <functional>
 #include <limits>
 #include <map>
@@ -93,6 +104,9 @@ std::optional<std::string> parseFloat(const std::string& text, float& out);
 std::optional<std::string> parseBool(const std::string& text, bool& out);
 std::optional<std::size_t> findName(const std::string& text, const std::vector<std::string>& names);
 std::string oneOfText(const std::vector<std::string>& names);
+/// Numbers separated by commas and/or whitespace, optionally in one pair of brackets ("1, 2", "[1 2]", "").
+std::optional<std::string> parseDoubleList(const std::string& text, std::vector<double>& out);
+std::string formatDoubleList(const double* v, std::size_t n);
 }  // namespace detail
 
 /// Text <-> value; parse() returns the reason when the text is not a valid value.
@@ -142,6 +156,37 @@ struct Codec<std::string> {
     return std::nullopt;
   }
   static std::string format(const std::string& v) { return v; }
+};
+
+template <>
+struct Codec<std::filesystem::path> {
+  static std::optional<std::string> parse(const std::string& text, std::filesystem::path& out) {
+    out = text;
+    return std::nullopt;
+  }
+  static std::string format(const std::filesystem::path& v) { return v.string(); }
+};
+
+/// A list of numbers: `1, 2, 3` or `1 2 3` (optionally in brackets); written space-separated.
+template <>
+struct Codec<std::vector<double>> {
+  static std::optional<std::string> parse(const std::string& text, std::vector<double>& out) {
+    return detail::parseDoubleList(text, out);
+  }
+  static std::string format(const std::vector<double>& v) { return detail::formatDoubleList(v.data(), v.size()); }
+};
+
+/// Exactly N numbers, as for std::vector<double>.
+template <std::size_t N>
+struct Codec<std::array<double, N>> {
+  static std::optional<std::string> parse(const std::string& text, std::array<double, N>& out) {
+    std::vector<double> v;
+    if (auto why = detail::parseDoubleList(text, v)) return why;
+    if (v.size() != N) return "expected " + std::to_string(N) + " numbers, got " + std::to_string(v.size());
+    std::copy(v.begin(), v.end(), out.begin());
+    return std::nullopt;
+  }
+  static std::string format(const std::array<double, N>& v) { return detail::formatDoubleList(v.data(), N); }
 };
 
 /// Enums: `enumNames(E{})`, found by argument-dependent lookup, returns a sequence of {value, name} pairs.
@@ -212,6 +257,7 @@ Range inClosed(double lo, double hi);     ///< [lo, hi]
 Range inOpen(double lo, double hi);       ///< (lo, hi)
 Range inLeftOpen(double lo, double hi);   ///< (lo, hi]
 Range inRightOpen(double lo, double hi);  ///< [lo, hi)
+Range finite();                           ///< any finite number
 
 /// Any predicate; `reason` is the message when it fails (e.g. "must be in (0, iniThFAST]").
 template <class F>
@@ -228,6 +274,23 @@ struct Satisfies {
 template <class F>
 Satisfies<F> satisfies(F pred, std::string reason) {
   return {std::move(pred), std::move(reason)};
+}
+
+/// A rule with its own reasons: `check(v)` returns the reason `v` is invalid (nullopt = valid); `text` describes
+/// the rule (describe()). For values whose checks have several reasons (a list: its length and its numbers).
+template <class F>
+struct Custom {
+  F check;
+  std::string description;
+  template <class T>
+  std::optional<std::string> operator()(const T& v) const {
+    return check(v);
+  }
+  std::string text() const { return description; }
+};
+template <class F>
+Custom<F> custom(F check, std::string description) {
+  return {std::move(check), std::move(description)};
 }
 
 /// A string among `names` (exact).
@@ -347,6 +410,28 @@ class Checker : public Visitor<Checker> {
 
  private:
   const std::string& section_;
+};
+
+/// Parses a text as the value of one key and applies the key's rule (cliCheckKey).
+class KeyChecker : public Visitor<KeyChecker> {
+ public:
+  KeyChecker(const std::string& target, const std::string& text) : target_(target), text_(text) {}
+  template <class T, class R>
+  void field(const char* name, T& value, const R& rule, const char*) {
+    if (key(name) != target_) return;
+    found_ = true;
+    T parsed = value;
+    if (auto why = Codec<T>::parse(text_, parsed)) reason_ = *why;
+    else if (auto bad = rule(parsed)) reason_ = *bad;
+  }
+  bool found() const { return found_; }
+  const std::optional<std::string>& reason() const { return reason_; }
+
+ private:
+  const std::string& target_;
+  const std::string& text_;
+  bool found_ = false;
+  std::optional<std::string> reason_;
 };
 
 // visitFields() is one non-const template for every visitor; saving and checking only read the fields.
@@ -492,10 +577,92 @@ void applyOverrides(mrpt::config::CConfigFileMemory& cfg, const std::vector<std:
 /// by an override, `<path>: ` otherwise.
 void withSource(const std::string& path, const std::vector<std::string>& overrides, const std::function<void()>& load);
 
+/// Checks the structure of ini text (MRPT's reader accepts almost anything and drops what it cannot use):
+/// every line is blank, a comment (`;`, `#`, `//`), a `[Section]` header, or `key = value` after a header; no
+/// section and no key of one section appears twice (names compared as MRPT does, without regard to case); no
+/// MRPT preprocessor line (`@define`, `@include`) and no variable expansion (`${..}`, `$env{..}`, `$eval{..}`).
+/// Throws pslam::Error `<source>:<line>: ...` naming the section and key.
+void checkIniSyntax(const std::string& text, const std::string& source);
+
+/// The one way a tool reads an ini file: its text (readConfigText: missing file, syntax), `overrides` applied,
+/// sections other than `sections` rejected (naming the closest; empty `sections`: any, for files of several
+/// blocks of which the caller picks one, as camera ini files), then `load(cfg)`. Every error is one line that
+/// names the file, or the override that set the failing key (withSource).
+void loadConfigFile(const std::string& path, const std::vector<std::string>& sections,
+                    const std::function<void(const mrpt::config::CConfigFileBase&)>& load,
+                    const std::vector<std::string>& overrides = {});
+
+/// A configuration of several sections (visitSections) from the file `path`.
+template <class C>
+void loadSectionsFromFile(C& c, const std::string& path, const std::vector<std::string>& overrides = {}) {
+  loadConfigFile(path, sectionsOf(c), [&](const mrpt::config::CConfigFileBase& cfg) { loadSections(c, cfg); },
+                 overrides);
+}
+
+/// One parameter struct from section `section` of the file `path`, which may hold no other section.
+template <class P>
+void loadSectionFromFile(P& p, const std::string& path, const std::string& section) {
+  loadConfigFile(path, {section}, [&](const mrpt::config::CConfigFileBase& cfg) { p.loadFromConfigFile(cfg, section); });
+}
+
+// ---- parameters whose keys are not a fixed list (class0 ... classN of a class map)
+
+/// The text of every key of [section] present in `cfg`, by key; throws ParamError for a key not in `known`
+/// (naming the closest) or a section spelled in another case.
+std::map<std::string, std::string> sectionValues(const mrpt::config::CConfigFileBase& cfg, const std::string& section,
+                                                 const std::vector<std::string>& known);
+
+/// `text` parsed as a T and checked by `rule`; throws ParamError `[section] key = text: reason`.
+template <class T, class R = AnyValue>
+T parseValue(const std::string& section, const std::string& key, const std::string& text, const R& rule = anyValue) {
+  T v{};
+  if (auto why = Codec<T>::parse(text, v)) throw ParamError(section, key, text, *why);
+  if (auto why = rule(v)) throw ParamError(section, key, text, *why);
+  return v;
+}
+
+// ---- command-line options
+
+/// A check for a command-line option with the signature of CLI11's Option::check(): "" when `text` is a T by
+/// the strict parsing of ini values (whole text, in the range of T, never nan) and satisfies `rule` (e.g.
+/// atLeast(0): finite, >= 0), otherwise `<text>: <reason>`. Usage: `->check(params::cliCheck<double>(atLeast(0)))`.
+template <class T, class R = AnyValue>
+std::function<std::string(const std::string&)> cliCheck(R rule = anyValue) {
+  return [rule](const std::string& text) -> std::string {
+    T v{};
+    if (auto why = Codec<T>::parse(text, v)) return text + ": " + *why;
+    if (auto why = rule(v)) return text + ": " + *why;
+    return "";
+  };
+}
+
+/// The check of a command-line option that sets the key `key` of a P: that key's parsing and rule (the other
+/// fields at their defaults, for rules that read them), so the option and the ini key cannot disagree; "" or
+/// `<text>: <reason>`. A key P does not have is a programming error (std::logic_error when the check runs).
+template <class P>
+std::function<std::string(const std::string&)> cliCheckKey(std::string key) {
+  return [key](const std::string& text) -> std::string {
+    P p{};
+    detail::KeyChecker c(key, text);
+    p.visitFields(c);
+    if (!c.found()) throw std::logic_error("cliCheckKey: no parameter key '" + key + "'");
+    return c.reason() ? text + ": " + *c.reason() : "";
+  };
+}
+
+/// The value of a command-line option checked by `rule`; throws pslam::Error `<option> = <value>: <reason>`.
+template <class T, class R>
+void checkOption(const std::string& option, const T& value, const R& rule) {
+  if (auto why = rule(value)) throw Error(option + " = " + Codec<T>::format(value) + ": " + *why);
+}
+
 }  // namespace pslam::params
 
 /// One field of a visitFields() list: key = the member's name.
 #define PSLAM_FIELD(v, member, rule, doc) (v).field(#member, member, rule, doc)
+/// A field whose key is not the member's name: the tools' options keep their snake_case keys
+/// (`max_time_difference` for association.maxTimeDifference).
+#define PSLAM_KEY(v, key, member, rule, doc) (v).field(key, member, rule, doc)
 /// A nested struct whose keys are `member.<field>` (see Params.h: only where leaf names collide).
 #define PSLAM_NESTED(v, member) (v).nested(#member, member)
 

@@ -18,11 +18,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "pslam/core/Params.h"
 #include "pslam/eval/Metrics.h"
-
-namespace mrpt::config {
-class CConfigFileBase;
-}
 
 namespace pslam::eval {
 
@@ -40,10 +37,17 @@ struct DepthRatioOptions {
   double scale = 1.0;                ///< multiplies estimated depths (the Sim(3) scale for monocular runs)
   double maxTimeDifference = 1e-3;   ///< seconds between a sample stamp and a rawlog frame stamp
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the key: tau in (0, inf), scale > 0 finite, maxTimeDifference >= 0.
-  void check() const;
+  /// Keys of slam-eval's section (pslam/core/Params.h): dr_tau, dr_scale, dr_max_time_difference.
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_KEY(v, "dr_tau", tau, greaterThan(0), "DR inlier threshold on the relative depth error (eq. 2.104)");
+    PSLAM_KEY(v, "dr_scale", scale, greaterThan(0), "multiplies estimated depths");
+    PSLAM_KEY(v, "dr_max_time_difference", maxTimeDifference, atLeast(0),
+              "[s] between a depth sample's stamp and a rawlog frame's stamp");
+  }
+  /// check() throws params::ParamError naming the key: tau > 0, scale > 0 (finite), maxTimeDifference >= 0.
+  PSLAM_PARAMS("slam_eval")
 };
 
 /// Ground-truth depth of one frame.

@@ -34,7 +34,9 @@ struct OrbParams {
   template <class V>
   void visitFields(V& v) {
     using namespace pslam::params;
-    PSLAM_FIELD(v, nFeatures, atLeast(1), "target number of keypoints over all levels (N_F^Descr)");
+    // The upper bound keeps featureFactor x nFeatures (the initializer's budget) and the per-level budgets
+    // within int.
+    PSLAM_FIELD(v, nFeatures, inClosed(1, 1000000), "target number of keypoints over all levels (N_F^Descr)");
     PSLAM_FIELD(v, scaleFactor, inOpen(1, 4), "scale between consecutive pyramid levels (s_L^Descr)");
     PSLAM_FIELD(v, nLevels, inClosed(1, 32), "number of pyramid levels (N_L^Descr)");
     PSLAM_FIELD(v, iniThFAST, inOpen(0, 255), "FAST threshold tried first in every cell (tau_init^Descr)");

@@ -38,12 +38,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "pslam/core/Params.h"
 #include "pslam/map/Types.h"
 #include "pslam/optimize/ImagePyramid.h"
-
-namespace mrpt::config {
-class CConfigFileBase;
-}
 
 namespace pslam::optimize {
 
@@ -67,10 +64,16 @@ struct PhotometricParams {
   /// chi2_P = 0.05 N_P in whitened units (* eta_P / eta_R).
   double whitenedChi2Threshold() const;
 
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the offending key.
-  void check() const;
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, etaR, greaterThan(0), "eta_R: weight of the keypoint re-projection term (Table 3.2)");
+    PSLAM_FIELD(v, etaP, greaterThan(0), "eta_P = 0.5 / N_P: weight of the photometric term (Table 3.2)");
+    PSLAM_FIELD(v, huberFactor, greaterThan(0), "delta_P = huberFactor * sqrt(eta_P) (Table 3.2)");
+    PSLAM_FIELD(v, chi2PerPixel, greaterThan(0), "chi2_P = chi2PerPixel * N_P (Table 3.2)");
+  }
+  /// loadFromConfigFile / saveToConfigFile; check() throws params::ParamError naming the offending key.
+  PSLAM_PARAMS("Photometric")
 };
 
 /// Affine brightness of one image: I = e^a L + b for the scene radiance L (DSO; see the header comment).

@@ -40,9 +40,13 @@ struct SemanticClassMap {
 
   /// Table 3.1 for the 19 Cityscapes classes in trainId order (road ... bicycle), 255 -> invalid.
   static SemanticClassMap cityscapes();
-  /// Reads an ini file with the [SemanticClassMap] section above. Throws pslam::Error naming file and key.
+  static constexpr const char* kSection = "SemanticClassMap";
+  /// Reads an ini file that holds the [SemanticClassMap] section above (and no other). Throws pslam::Error
+  /// naming file, section and key.
   static SemanticClassMap loadFromFile(const std::filesystem::path& iniPath);
 
+  /// Strict (pslam/core/Params.h): numClasses in [1, 256], every key one of name, numClasses, unlabeled, default,
+  /// class0 ... class<numClasses-1>, groups static | dynamic | invalid; errors are params::ParamError.
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
   void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
   /// Non-empty, sizes consistent, at most 256 classes (8-bit label images).

@@ -16,17 +16,18 @@
 //   outputLayer =                ; optional; empty = the network's default output
 //   classMap    = cityscapes     ; "cityscapes" (built in) or a class-map ini path
 // Relative paths are relative to the folder of the ini file.
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
 
+#include "pslam/core/Params.h"
+#include "pslam/priors/DnnFramework.h"
 #include "pslam/priors/SemanticClassMap.h"
-
-namespace mrpt::config {
-class CConfigFileBase;
-}
 
 namespace pslam::priors {
 
@@ -37,19 +38,44 @@ struct SemanticNetworkParams {
   int inputWidth = 1024;
   int inputHeight = 512;
   double scale = 1.0;
-  cv::Scalar mean{0, 0, 0};
+  std::array<double, 3> mean{0, 0, 0};
   bool swapRB = false;
   bool softmax = true;
   std::string outputLayer;
   std::string classMap = "cityscapes";
 
-  /// Relative paths are resolved against `baseDir`.
-  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section,
+  /// The keys of the section above (pslam/core/Params.h: strict, unknown keys are errors).
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, model, anyValue, "weights file (required; relative = to the ini's folder)");
+    PSLAM_FIELD(v, config, anyValue, "architecture file (optional for ONNX)");
+    PSLAM_FIELD(v, framework, dnnFrameworkRule(), "cv::dnn::readNet framework; empty = from the file extensions");
+    PSLAM_FIELD(v, inputWidth, inClosed(1, 16384), "network input width");
+    PSLAM_FIELD(v, inputHeight, inClosed(1, 16384), "network input height");
+    PSLAM_FIELD(v, scale, greaterThan(0), "blob = scale * (image - mean)");
+    PSLAM_FIELD(v, mean, custom([](const std::array<double, 3>& m) -> std::optional<std::string> {
+                  for (double x : m)
+                    if (!std::isfinite(x)) return "must be finite";
+                  return std::nullopt;
+                }, "three finite numbers"),
+                "per channel, in the channel order after swapRB");
+    PSLAM_FIELD(v, swapRB, anyValue, "images are BGR; true feeds RGB");
+    PSLAM_FIELD(v, softmax, anyValue, "false when the network already outputs probabilities");
+    PSLAM_FIELD(v, outputLayer, anyValue, "empty = the network's default output");
+    PSLAM_FIELD(v, classMap, nonEmpty, "\"cityscapes\" (built in) or a class-map ini path");
+  }
+  static constexpr const char* kSection = "SemanticNetwork";
+
+  /// Strict (unknown keys, values of the wrong type or range are errors naming section and key); relative
+  /// paths are resolved against `baseDir`; then check().
+  void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section = kSection,
                           const std::filesystem::path& baseDir = {});
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
-  /// Throws pslam::Error naming the key (missing files, sizes <= 0, NaN scale).
+  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section = kSection) const;
+  /// Throws params::ParamError naming the key (rules above; model set and found, config found when set).
   void check() const;
-  /// Reads section [SemanticNetwork] of an ini file; throws pslam::Error naming the file.
+  /// Reads section [SemanticNetwork] of an ini file that holds only this section; throws pslam::Error naming
+  /// the file, section and key.
   static SemanticNetworkParams loadFromFile(const std::filesystem::path& iniPath);
 };
 
