@@ -181,7 +181,7 @@ TEST(Camera, IniWithOnlyTheSectionHeaderNamesTheMissingKey) {
   } catch (const Error& e) {
     const std::string msg = e.what();
     EXPECT_NE(msg.find("cam.ini"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("'resolution' not found"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("[CAMERA] resolution: missing"), std::string::npos) << msg;
     EXPECT_EQ(msg.find("MRPT exception"), std::string::npos) << msg;
     EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
   }
