@@ -11,6 +11,7 @@ PKGS=(
   libceres-dev libsuitesparse-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   nlohmann-json3-dev libcli11-dev
+  libyaml-cpp-dev
 )
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq

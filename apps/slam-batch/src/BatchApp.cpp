@@ -1,0 +1,145 @@
+#include "pslam/batch/BatchApp.h"
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+
+#include <cerrno>
+#include <chrono>
+#include <iostream>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <thread>
+
+#include "pslam/batch/Collect.h"
+#include "pslam/core/Error.h"
+
+namespace pslam::batch {
+namespace fs = std::filesystem;
+
+namespace {
+Manifest load(const CommonOptions& c) { return loadManifest(c.manifest, c.out); }
+}  // namespace
+
+int commandCollect(const CommonOptions& c) {
+  const Manifest m = load(c);
+  const std::vector<RunResult> rows = evaluateRuns(m, false);
+  const std::vector<fs::path> written = collect(m, rows);
+  std::size_t ok = 0;
+  for (const RunResult& r : rows) ok += r.status == "ok";
+  if (!c.quiet) {
+    std::cerr << "slam-batch: collected " << ok << " evaluated run(s) of " << rows.size() << " into "
+              << m.output.string() << ":";
+    for (const fs::path& p : written) std::cerr << " " << p.filename().string();
+    std::cerr << "\n";
+  }
+  return 0;
+}
+
+int commandRun(const CommonOptions& c, std::size_t jobs, bool noCollect) {
+  const Manifest m = load(c);
+  const std::vector<const RunSpec*> todo = runsToDo(m);
+  LocalRunOptions o;
+  o.jobs = jobs;
+  o.progress = !c.quiet;
+  const LocalRunSummary s = runLocally(m, todo, o, m.runs.size() - todo.size());
+  if (!c.quiet)
+    std::cerr << "slam-batch: " << s.ok << " ok, " << s.failed << " failed, " << s.skipped
+              << " skipped (already done)\n";
+  if (!noCollect) commandCollect(c);
+  return s.failed == 0 ? 0 : 1;
+}
+
+int commandRunOne(const CommonOptions& c, const std::string& runIdIn, const fs::path& tasks, long long index) {
+  const Manifest m = load(c);
+  std::string runId = runIdIn;
+  if (runId.empty()) {
+    require(!tasks.empty() && index >= 0, "slam-batch run-one", "give --run ID, or --tasks FILE and --index I");
+    runId = taskRunId(tasks, static_cast<std::size_t>(index));
+  }
+  const RunSpec* run = m.findRun(runId);
+  require(run != nullptr, m.file.string(), "no run '" + runId + "' in this manifest");
+  if (runState(m, *run) == RunState::Done) {
+    if (!c.quiet) std::cerr << "slam-batch: " << runId << " is already done\n";
+    return 0;
+  }
+  installStopHandlers();
+  std::optional<RunExecution> running;
+  running.emplace(m, *run);
+  RunExecution& exec = *running;
+  for (;;) {
+    int status = 0;
+    struct rusage ru {};
+    const pid_t pid = ::wait4(exec.pid(), &status, WNOHANG, &ru);
+    if (pid == exec.pid()) {
+      const double cpu = ru.ru_utime.tv_sec + ru.ru_stime.tv_sec + 1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+      const RunRecord rec = exec.finish(status, cpu);
+      if (!c.quiet)
+        std::cerr << "slam-batch: " << runId << " " << rec.status << " in " << rec.wallSeconds << " s"
+                  << (rec.error.empty() ? "" : ": " + rec.error) << "\n";
+      return rec.status == "ok" ? 0 : 1;
+    }
+    if (pid < 0 && errno != EINTR)
+      throw Error(std::string("slam-batch: waiting for slam-run failed (") + std::strerror(errno) + ")");
+    if (const int sig = stopSignal()) {
+      exec.signal(SIGTERM);
+      int st = 0;
+      while (::waitpid(exec.pid(), &st, 0) < 0 && errno == EINTR) {
+      }
+      exec.markReaped();
+      std::cerr << "slam-batch: " << runId << " stopped by signal " << sig << "; its temporary folder is removed\n";
+      running.reset();  // removes the temporary folder before the process ends
+      reraise(sig);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+int commandSubmit(const CommonOptions& c, const SlurmOptions& o) {
+  const Manifest m = load(c);
+  const std::vector<const RunSpec*> todo = runsToDo(m);
+  if (todo.empty()) {
+    if (!c.quiet) std::cerr << "slam-batch: every run of " << m.name << " is done; nothing to submit\n";
+    return 0;
+  }
+  const SlurmSubmission sub = submitToSlurm(m, todo, o);
+  if (o.dryRun) {
+    std::cerr << "slam-batch: dry run: " << sub.script.string() << " (" << sub.taskCount << " tasks) not submitted\n";
+    return 0;
+  }
+  std::cout << sub.jobId << "\n";
+  if (!c.quiet)
+    std::cerr << "slam-batch: submitted job array " << sub.jobId << " (" << sub.taskCount << " tasks): "
+              << sub.script.string() << "\n";
+  return 0;
+}
+
+int commandStatus(const CommonOptions& c, bool verbose) {
+  const Manifest m = load(c);
+  std::string slurmError;
+  const std::map<std::string, std::string> slurm = slurmStates(m, slurmError);
+  std::map<std::string, std::size_t> counts;
+  std::vector<std::string> lines;
+  for (const RunSpec& r : m.runs) {
+    RunRecord rec;
+    const RunState s = runState(m, r, &rec);
+    std::string state = toString(s);
+    if (s != RunState::Done) {
+      if (auto it = slurm.find(r.id); it != slurm.end()) state = "slurm:" + it->second;
+    }
+    counts[state]++;
+    if (verbose || s == RunState::Failed || state.rfind("slurm:", 0) == 0 || s == RunState::Stale) {
+      std::string line = "  " + r.id + "  " + state;
+      if (s == RunState::Failed) line += "  " + rec.error;
+      lines.push_back(line);
+    }
+  }
+  std::cout << m.name << ": " << m.runs.size() << " runs in " << m.output.string() << "\n ";
+  for (const auto& [state, n] : counts) std::cout << " " << state << " " << n;
+  std::cout << "\n";
+  for (const std::string& l : lines) std::cout << l << "\n";
+  if (!slurmError.empty()) std::cout << "  (Slurm not asked: " << slurmError << ")\n";
+  return counts["done"] == m.runs.size() ? 0 : 3;
+}
+
+}  // namespace pslam::batch
