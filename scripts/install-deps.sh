@@ -11,6 +11,8 @@ PKGS=(
   libceres-dev libsuitesparse-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   nlohmann-json3-dev libcli11-dev
+  # scripts/slurm-local.sh: private one-node Slurm cluster for tests
+  slurmctld slurmd slurm-client munge
 )
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
