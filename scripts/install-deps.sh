@@ -12,6 +12,8 @@ PKGS=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   nlohmann-json3-dev libcli11-dev
   libyaml-cpp-dev
+  # scripts/slurm-local.sh: private one-node Slurm cluster for tests
+  slurmctld slurmd slurm-client munge
 )
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
