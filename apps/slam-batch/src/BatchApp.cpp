@@ -124,13 +124,23 @@ int commandStatus(const CommonOptions& c, bool verbose) {
     RunRecord rec;
     const RunState s = runState(m, r, &rec);
     std::string state = toString(s);
+    std::string note;
     if (s != RunState::Done) {
-      if (auto it = slurm.find(r.id); it != slurm.end()) state = "slurm:" + it->second;
+      if (auto it = slurm.find(r.id); it != slurm.end()) {
+        if (it->second != "ENDED") {
+          state = "slurm:" + it->second;  // queued or running (again, for a failed or stale run)
+        } else if (s == RunState::Pending) {
+          // Left the queue without a run folder (time limit with SIGKILL, node failure): its log says why.
+          state = "slurm:ENDED";
+          note = "  left the queue without a result; see " + (m.output / "slurm" / "logs").string();
+        }
+      }
     }
     counts[state]++;
     if (verbose || s == RunState::Failed || state.rfind("slurm:", 0) == 0 || s == RunState::Stale) {
       std::string line = "  " + r.id + "  " + state;
       if (s == RunState::Failed) line += "  " + rec.error;
+      line += note;
       lines.push_back(line);
     }
   }

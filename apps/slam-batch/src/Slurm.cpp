@@ -180,9 +180,22 @@ std::map<std::string, std::string> slurmStates(const Manifest& m, std::string& e
   const CommandOutput res = runCommand({"squeue", "--noheader", "--array", "--jobs=" + list, "--format=%i %T"});
   if (res.exitCode != 0) {
     // squeue says "Invalid job id specified" once every listed job has left the queue.
-    if (res.output.find("Invalid job id") != std::string::npos) return states;
+    if (res.output.find("Invalid job id") != std::string::npos) {
+      for (const auto& [job, tasks] : tasksOf) {
+        std::ifstream in(tasks);
+        for (std::string id; std::getline(in, id);)
+          if (!trim(id).empty()) states[trim(id)] = "ENDED";
+      }
+      return states;
+    }
     error = res.exitCode == 127 ? "squeue not found" : oneLineMessage(trim(res.output));
     return states;
+  }
+  // Every run a submission listed starts as ENDED (left the queue); squeue's lines then say which are not.
+  for (const auto& [job, tasks] : tasksOf) {
+    std::ifstream in(tasks);
+    for (std::string id; std::getline(in, id);)
+      if (!trim(id).empty()) states[trim(id)] = "ENDED";
   }
   std::istringstream lines(res.output);
   std::string task, state;

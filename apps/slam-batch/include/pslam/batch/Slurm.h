@@ -36,8 +36,10 @@ SlurmSubmission submitToSlurm(const Manifest& m, const std::vector<const RunSpec
 std::string slurmScript(const Manifest& m, const std::filesystem::path& tasksFile, std::size_t taskCount,
                         const SlurmOptions& o, const std::string& cpusPerTask, const std::filesystem::path& logDir);
 
-/// Run id -> Slurm state (PENDING, RUNNING, ...) of the tasks of this manifest's submissions that squeue still
-/// lists. `error` receives squeue's message when it cannot be asked (not installed, no controller).
+/// Run id -> Slurm state of every run this manifest's submissions listed: squeue's state (PENDING, RUNNING,
+/// ...) while it lists the task, ENDED once the task has left the queue (done, or lost when its run folder is
+/// missing: see slurm/logs/). `error` receives squeue's message when it cannot be asked (not installed, no
+/// controller); the map is then empty.
 std::map<std::string, std::string> slurmStates(const Manifest& m, std::string& error);
 
 /// Line `index` (0-based) of a task file: the run id of that array task. Throws pslam::Error naming the file.
