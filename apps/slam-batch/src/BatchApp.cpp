@@ -1,5 +1,7 @@
 #include "pslam/batch/BatchApp.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 
@@ -36,8 +38,24 @@ int commandCollect(const CommonOptions& c) {
   return 0;
 }
 
+namespace {
+/// One `run` per output folder at a time: an exclusive flock on <output>/.slam-batch.lock, released when the
+/// process ends (however it ends).
+void lockOutput(const Manifest& m) {
+  std::error_code ec;
+  fs::create_directories(m.output, ec);
+  const fs::path lock = m.output / ".slam-batch.lock";
+  const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(lock.string() + ": cannot open (" + std::strerror(errno) + ")");
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0)
+    throw Error(m.output.string() + ": another slam-batch run is working in this output folder");
+  // fd stays open (and locked) until the process ends.
+}
+}  // namespace
+
 int commandRun(const CommonOptions& c, std::size_t jobs, bool noCollect) {
   const Manifest m = load(c);
+  lockOutput(m);
   const std::vector<const RunSpec*> todo = runsToDo(m);
   LocalRunOptions o;
   o.jobs = jobs;

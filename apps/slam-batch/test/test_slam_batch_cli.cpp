@@ -143,6 +143,10 @@ TEST(SlamBatchCli, InterruptLeavesNoHalfWrittenRunFolder) {
   while (temporaries(out).size() < 2 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(30))
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_EQ(temporaries(out).size(), 2u);
+  // A second `run` on the same output folder meanwhile is refused.
+  const ToolResult second = run(batch("run " + manifest.string() + " --out " + out.string()));
+  EXPECT_EQ(second.exitCode, 1);
+  EXPECT_EQ(second.output, "slam-batch: " + out.string() + ": another slam-batch run is working in this output folder\n");
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   ::kill(-pid, SIGINT);
   int st = 0;
