@@ -71,17 +71,12 @@ void readReport(const fs::path& report, RunResult& row) {
   row.relocalizations = s.at("relocalizations").get<long long>();
 }
 
-eval::EvalOptions evalOptions(const Manifest& m, const RunSpec& r) {
+eval::EvalOptions evalOptions(const Manifest& m) {
   eval::EvalOptions o;
   o.alignment = m.evaluation.alignment;
   o.association.rule = m.evaluation.association;
   o.association.maxTimeDifference = m.evaluation.maxTimeDifference;
-  if (m.evaluation.depthRatio) {
-    o.depthSamples = m.runFolder(r) / "depths.txt";
-    o.depthRawlog = m.dataset(r).rawlog;
-    o.depthUseAlignmentScale = m.evaluation.alignment == eval::AlignmentMode::Sim3;
-  }
-  return o;
+  return o;  // DR separately: the rawlog's depth frames are read once per dataset
 }
 
 }  // namespace
@@ -106,11 +101,11 @@ Spread spreadOf(std::vector<double> v) {
 }
 
 std::vector<RunResult> evaluateRuns(const Manifest& m, bool progress) {
-  std::vector<RunResult> rows;
-  std::size_t k = 0;
-  for (const RunSpec& r : m.runs) {
-    ++k;
-    RunResult row;
+  std::vector<RunResult> rows(m.runs.size());
+  std::vector<std::size_t> withTrajectory;
+  for (std::size_t i = 0; i < m.runs.size(); ++i) {
+    const RunSpec& r = m.runs[i];
+    RunResult& row = rows[i];
     row.run = &r;
     RunRecord rec;
     const RunState state = runState(m, r, &rec);
@@ -123,7 +118,6 @@ std::vector<RunResult> evaluateRuns(const Manifest& m, bool progress) {
     }
     if (state != RunState::Done) {
       row.status = toString(state);
-      rows.push_back(row);
       continue;
     }
     try {
@@ -131,33 +125,71 @@ std::vector<RunResult> evaluateRuns(const Manifest& m, bool progress) {
     } catch (const std::exception& e) {
       row.status = "eval-failed";
       row.error = (folder / "report.json").string() + ": " + oneLineMessage(e);
-      rows.push_back(row);
       continue;
     }
     if (!hasPoses(folder / "trajectory.txt")) {
       row.status = "no-trajectory";
       row.error = "never initialized";
-      rows.push_back(row);
       continue;
     }
-    try {
-      const eval::EvalApp app(evalOptions(m, r));
-      const eval::EvalResult res = app.run(m.dataset(r).groundTruth, folder / "trajectory.txt");
-      row.posesEvaluated = res.ate.stats.count;
-      row.ateRmse = res.ate.stats.rmse;
-      row.ateMedian = res.ate.stats.median;
-      if (res.rpe) row.rpeTranslationRmse = res.rpe->translation.rmse;
-      if (res.rotationError) row.rotationErrorMean = res.rotationError->stats.mean;
-      if (res.depthRatio) row.depthRatio = 100.0 * res.depthRatio->ratio;
-      row.status = "ok";
-    } catch (const std::exception& e) {
-      row.status = "eval-failed";
-      row.error = oneLineMessage(e);
+    withTrajectory.push_back(i);
+  }
+
+  const eval::EvalApp app(evalOptions(m));
+  std::size_t done = 0;
+  for (std::size_t di = 0; di < m.datasets.size(); ++di) {
+    std::vector<std::size_t> runs;
+    for (std::size_t i : withTrajectory)
+      if (m.runs[i].datasetIndex == di) runs.push_back(i);
+    if (runs.empty()) continue;
+    // DR: every run's depth samples first, then the rawlog's depth frames they refer to, read once.
+    const eval::DepthRatioOptions drDefaults;
+    std::vector<std::vector<eval::DepthSample>> samples(runs.size());
+    std::vector<eval::DepthFrame> frames;
+    std::string depthError;
+    if (m.evaluation.depthRatio) {
+      std::vector<double> stamps;
+      for (std::size_t k = 0; k < runs.size(); ++k) {
+        try {
+          samples[k] = eval::readDepthSamples(m.runFolder(m.runs[runs[k]]) / "depths.txt");
+        } catch (const std::exception& e) {
+          rows[runs[k]].error = oneLineMessage(e);
+        }
+        for (const eval::DepthSample& s : samples[k]) stamps.push_back(s.timestamp);
+      }
+      try {
+        frames = eval::readDepthFrames(m.datasets[di].rawlog, std::move(stamps), drDefaults.maxTimeDifference);
+      } catch (const std::exception& e) {
+        depthError = oneLineMessage(e);
+      }
     }
-    if (progress)
-      std::cerr << "slam-batch: collect [" << k << "/" << m.runs.size() << "] " << r.id << " " << row.status
-                << (row.ateRmse ? " ATE " + num(row.ateRmse) + " m" : std::string()) << "\n";
-    rows.push_back(row);
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+      RunResult& row = rows[runs[k]];
+      const RunSpec& r = m.runs[runs[k]];
+      try {
+        const eval::EvalResult res = app.run(m.dataset(r).groundTruth, m.runFolder(r) / "trajectory.txt");
+        row.posesEvaluated = res.ate.stats.count;
+        row.ateRmse = res.ate.stats.rmse;
+        row.ateMedian = res.ate.stats.median;
+        if (res.rpe) row.rpeTranslationRmse = res.rpe->translation.rmse;
+        if (res.rotationError) row.rotationErrorMean = res.rotationError->stats.mean;
+        if (m.evaluation.depthRatio) {
+          if (!depthError.empty()) throw Error(depthError);
+          if (!row.error.empty()) throw Error(row.error);  // its depths.txt could not be read
+          eval::DepthRatioOptions dr = drDefaults;
+          if (m.evaluation.alignment == eval::AlignmentMode::Sim3) dr.scale *= res.alignment.scale;
+          row.depthRatio = 100.0 * eval::computeDepthRatio(samples[k], frames, dr).ratio;
+        }
+        row.status = "ok";
+      } catch (const std::exception& e) {
+        row.status = "eval-failed";
+        row.error = oneLineMessage(e);
+      }
+      ++done;
+      if (progress)
+        std::cerr << "slam-batch: collect [" << done << "/" << withTrajectory.size() << "] " << r.id << " "
+                  << row.status << (row.ateRmse ? " ATE " + num(row.ateRmse) + " m" : std::string()) << "\n";
+    }
   }
   return rows;
 }

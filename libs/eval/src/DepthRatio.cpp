@@ -104,25 +104,30 @@ DepthRatioResult computeDepthRatio(const std::vector<DepthSample>& samples, cons
   return r;
 }
 
-DepthRatioResult computeDepthRatio(const std::vector<DepthSample>& samples, const std::filesystem::path& rawlog,
-                                   const DepthRatioOptions& options) {
-  options.check();
-  std::vector<double> wanted;
-  for (const auto& s : samples) wanted.push_back(s.timestamp);
+std::vector<DepthFrame> readDepthFrames(const std::filesystem::path& rawlog, std::vector<double> wanted,
+                                       double maxTimeDifference) {
   std::sort(wanted.begin(), wanted.end());
   datasets::RawlogReader reader(rawlog);
   std::vector<DepthFrame> frames;
   datasets::Frame frame;
   while (reader.next(frame)) {
     // Keep only frames some sample may refer to: whole depth images of a long run do not fit in memory.
-    const auto it = std::lower_bound(wanted.begin(), wanted.end(), frame.timestamp - options.maxTimeDifference);
-    if (it == wanted.end() || *it > frame.timestamp + options.maxTimeDifference) continue;
+    const auto it = std::lower_bound(wanted.begin(), wanted.end(), frame.timestamp - maxTimeDifference);
+    if (it == wanted.end() || *it > frame.timestamp + maxTimeDifference) continue;
     if (!frame.hasDepth())
       throw Error(rawlog.string() + ": frame " + std::to_string(frame.index) +
                   " is referenced by a depth sample but has no DEPTH observation");
     frames.push_back({frame.timestamp, frame.depth.clone(), frame.depthUnits});
   }
-  return computeDepthRatio(samples, frames, options);
+  return frames;
+}
+
+DepthRatioResult computeDepthRatio(const std::vector<DepthSample>& samples, const std::filesystem::path& rawlog,
+                                   const DepthRatioOptions& options) {
+  options.check();
+  std::vector<double> wanted;
+  for (const auto& s : samples) wanted.push_back(s.timestamp);
+  return computeDepthRatio(samples, readDepthFrames(rawlog, std::move(wanted), options.maxTimeDifference), options);
 }
 
 }  // namespace pslam::eval

@@ -69,6 +69,12 @@ struct DepthRatioResult {
 DepthRatioResult computeDepthRatio(const std::vector<DepthSample>& samples, const std::vector<DepthFrame>& frames,
                                    const DepthRatioOptions& options);
 
+/// The DEPTH frames of a rawlog whose stamps are within maxTimeDifference of one of `timestamps`, read in one
+/// pass (several runs on one rawlog share them: slam-batch collect). Throws pslam::Error naming the rawlog and
+/// frame when a wanted frame has no DEPTH observation.
+std::vector<DepthFrame> readDepthFrames(const std::filesystem::path& rawlog, std::vector<double> timestamps,
+                                        double maxTimeDifference);
+
 /// DR against the DEPTH channel of a rawlog (pslam::datasets::RawlogReader). Throws pslam::Error naming the
 /// rawlog if it has no DEPTH channel at the needed frames.
 DepthRatioResult computeDepthRatio(const std::vector<DepthSample>& samples, const std::filesystem::path& rawlog,
