@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# The sanitizer job: an AddressSanitizer + UndefinedBehaviorSanitizer build of the tests in its own build folder,
+# then the unit and e2e tests under the sanitizers (the first report stops the test: -fno-sanitize-recover=all).
+# Called by .ci/run after scripts/run-tests.sh, which has installed the dependencies. Details, and what is left
+# out and why: doc/reliability-config.md ("Sanitizer job").
+#
+#   bash scripts/run-sanitizers.sh            # BUILD_DIR=build-sanitize, JOBS=2; ccache is used when installed
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD_DIR=${SANITIZE_BUILD_DIR:-build-sanitize}
+JOBS=${SANITIZE_JOBS:-${JOBS:-2}}
+
+# -O1: the sanitizers' usual trade-off (about half the -O0 run time, stacks still readable).
+# EIGEN_MALLOC_ALREADY_ALIGNED=1: under ASan Eigen switches to its own aligned allocator (it tests
+# __SANITIZE_ADDRESS__), while the Debian Ceres library was built without it; memory Eigen allocates in Ceres
+# and frees in our code (or the reverse) is then reported as a heap-buffer-overflow in handmade_aligned_free
+# (test_optimize_residuals). With the definition our code uses glibc's malloc, which is 16-byte aligned on
+# x86-64, exactly as the uninstrumented Ceres does.
+FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -O1 -g1"
+FLAGS="$FLAGS -DEIGEN_MALLOC_ALREADY_ALIGNED=1"
+LINK_FLAGS="-fsanitize=address,undefined"
+
+launcher=()
+if command -v ccache >/dev/null 2>&1; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
+
+start=$(date +%s)
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Sanitize \
+  -DCMAKE_CXX_FLAGS_SANITIZE="$FLAGS" \
+  -DCMAKE_EXE_LINKER_FLAGS_SANITIZE="$LINK_FLAGS" \
+  -DCMAKE_SHARED_LINKER_FLAGS_SANITIZE="$LINK_FLAGS" \
+  -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
+
+# The tests run here: labels unit and e2e, without external_consumer (it installs the build and compiles a
+# consumer project against it: a packaging check that runs no project code the other e2e tests do not run).
+# Tests labelled data need ../shared/data; the Release job runs them.
+LABELS='^(unit|e2e)$'
+EXCLUDE='^external_consumer$'
+mapfile -t tests < <(ctest --test-dir "$BUILD_DIR" -N -L "$LABELS" -E "$EXCLUDE" | sed -n 's/^ *Test *#[0-9]*: //p')
+[ "${#tests[@]}" -gt 0 ] || { echo "run-sanitizers: no tests found" >&2; exit 1; }
+# Only what these tests need (their executables; e2e tests depend on the tools they run).
+cmake --build "$BUILD_DIR" -j"$JOBS" --target "${tests[@]}"
+built=$(date +%s)
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-halt_on_error=1:detect_leaks=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
+ctest --test-dir "$BUILD_DIR" -L "$LABELS" -E "$EXCLUDE" --output-on-failure -j"$JOBS"
+done_=$(date +%s)
+echo "run-sanitizers: ${#tests[@]} tests; build $((built - start)) s, tests $((done_ - built)) s"
