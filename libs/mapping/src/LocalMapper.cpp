@@ -183,16 +183,80 @@ int LocalMapper::cullRecentPoints(KeyFrameId kfId, int* byInlierRatio) {
 
 namespace {
 
-struct PairMatch {
-  std::size_t i1 = 0, i2 = 0;
+/// Keypoints of one keyframe binned in square cells, to list those that may lie within `halfWidth` pixels of a
+/// line: the cells of every column (or row, for a steep line) between the line's values at the column's edges,
+/// widened by the half-width measured along the axis. Conservative: it never leaves out a keypoint within the
+/// band; the exact band test is still applied to each candidate.
+class EpipolarBandGrid {
+ public:
+  EpipolarBandGrid(const std::vector<double>& xs, const std::vector<double>& ys, double halfWidth)
+      : halfWidth_(halfWidth + 1.0) {  // + 1 px against rounding at the cell edges
+    if (xs.empty()) return;
+    x0_ = *std::min_element(xs.begin(), xs.end());
+    y0_ = *std::min_element(ys.begin(), ys.end());
+    const double x1 = *std::max_element(xs.begin(), xs.end()), y1 = *std::max_element(ys.begin(), ys.end());
+    cols_ = static_cast<int>((x1 - x0_) / kCell) + 1;
+    rows_ = static_cast<int>((y1 - y0_) / kCell) + 1;
+    cells_.resize(static_cast<std::size_t>(cols_) * static_cast<std::size_t>(rows_));
+    for (std::size_t n = 0; n < xs.size(); ++n)
+      cells_[cellIndex(colOf(xs[n]), rowOf(ys[n]))].push_back(n);  // ascending n within each cell
+  }
+
+  /// Indices (ascending) of the keypoints in the cells the band around the line a x + b y + c = 0 crosses.
+  void candidates(const Eigen::Vector3d& line, std::vector<std::size_t>& out) const {
+    out.clear();
+    if (cells_.empty()) return;
+    const double a = line.x(), b = line.y(), c = line.z();
+    const double norm = std::hypot(a, b);
+    if (!(norm > 0.0)) return;
+    if (std::abs(b) >= std::abs(a)) {  // y = -(a x + c) / b over each column
+      const double widen = halfWidth_ * norm / std::abs(b);
+      for (int col = 0; col < cols_; ++col) {
+        const double xa = x0_ + col * kCell, xb = xa + kCell;
+        const double ya = -(a * xa + c) / b, yb = -(a * xb + c) / b;
+        const int r0 = std::max(0, rowOf(std::min(ya, yb) - widen)), r1 = std::min(rows_ - 1, rowOf(std::max(ya, yb) + widen));
+        for (int row = r0; row <= r1; ++row) append(cellIndex(col, row), out);
+      }
+    } else {  // x = -(b y + c) / a over each row
+      const double widen = halfWidth_ * norm / std::abs(a);
+      for (int row = 0; row < rows_; ++row) {
+        const double ya = y0_ + row * kCell, yb = ya + kCell;
+        const double xa = -(b * ya + c) / a, xb = -(b * yb + c) / a;
+        const int c0 = std::max(0, colOf(std::min(xa, xb) - widen)), c1 = std::min(cols_ - 1, colOf(std::max(xa, xb) + widen));
+        for (int col = c0; col <= c1; ++col) append(cellIndex(col, row), out);
+      }
+    }
+    std::sort(out.begin(), out.end());
+  }
+
+ private:
+  static constexpr double kCell = 32.0;  // pixels
+  int colOf(double x) const {
+    const double v = std::floor((x - x0_) / kCell);
+    return v < 0 ? -1 : (v >= cols_ ? cols_ : static_cast<int>(v));
+  }
+  int rowOf(double y) const {
+    const double v = std::floor((y - y0_) / kCell);
+    return v < 0 ? -1 : (v >= rows_ ? rows_ : static_cast<int>(v));
+  }
+  std::size_t cellIndex(int col, int row) const {
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(cols_) + static_cast<std::size_t>(col);
+  }
+  void append(std::size_t cell, std::vector<std::size_t>& out) const {
+    out.insert(out.end(), cells_[cell].begin(), cells_[cell].end());
+  }
+  double halfWidth_, x0_ = 0, y0_ = 0;
+  int cols_ = 0, rows_ = 0;
+  std::vector<std::vector<std::size_t>> cells_;
 };
 
 /// ORB-SLAM SearchForTriangulation without a vocabulary: every unmatched keypoint of kf1 against every
 /// unmatched keypoint of kf2 (ascending indices): on the epipolar line (chi2 3.84 with kf2's level sigma^2),
 /// far enough from the epipole; the best must be <= TH_LOW (and < nnRatio x the second best if nnRatio < 1); one kf1 keypoint
 /// per kf2 keypoint (first come); then the rotation histogram.
-std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2, const Eigen::Matrix3d& F12,
-                                              const LocalMappingParams& params) {
+std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const KeyFrame& kf2,
+                                                  const Eigen::Matrix3d& F12, const LocalMappingParams& params,
+                                                  TriangulationSearch mode) {
   // Epipole in kf2: projection of kf1's centre.
   const Eigen::Vector3d c1in2 = kf2.T_cam_world * kf1.cameraCenter();
   const bool epipoleValid = c1in2.z() > 1e-9;
@@ -211,6 +275,12 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
     bound2[n] = kEpipolarChi2 * kf2.levelSigma2.at(kf2.keypoints[free2[n]].octave);
   }
   std::vector<bool> taken2(kf2.numKeypoints(), false);
+  // Guided: only the kf2 keypoints in grid cells the band of x1's line crosses, in ascending order, so the
+  // result is that of the exhaustive scan (same candidates pass the band test, visited in the same order).
+  double maxBound2 = 0.0;
+  for (double b : bound2) maxBound2 = std::max(maxBound2, b);
+  const EpipolarBandGrid grid(x2s, y2s, std::sqrt(maxBound2));
+  std::vector<std::size_t> candidates;
 
   std::vector<PairMatch> matches;
   std::vector<int> bins;
@@ -226,7 +296,13 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
     const Eigen::Vector3d line2 = F12.transpose() * Eigen::Vector3d(x1.x(), x1.y(), 1.0);  // l2 = F12^T x1
     const double lineNorm2 = line2.head<2>().squaredNorm();
     if (!(lineNorm2 > 0.0)) continue;  // x1 at the epipole: no line
-    for (std::size_t n = 0; n < free2.size(); ++n) {
+    if (mode == TriangulationSearch::Guided) {
+      grid.candidates(line2, candidates);
+    } else {
+      candidates.resize(free2.size());
+      for (std::size_t n = 0; n < free2.size(); ++n) candidates[n] = n;
+    }
+    for (const std::size_t n : candidates) {
       const std::size_t j = free2[n];
       if (taken2[j]) continue;
       const double num = line2.x() * x2s[n] + line2.y() * y2s[n] + line2.z();
@@ -263,6 +339,11 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
 
 }  // namespace
 
+std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2, const Eigen::Matrix3d& F12,
+                                              const LocalMappingParams& params, TriangulationSearch mode) {
+  return searchForTriangulationImpl(kf1, kf2, F12, params, mode);
+}
+
 std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
   std::vector<MapPointId> created;
   const std::vector<KeyFrameId> neighbours =
@@ -279,7 +360,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
     const Eigen::Matrix3d R1 = kf1.T_cam_world.linear(), R2 = kf2.T_cam_world.linear();
     const Eigen::Vector3d t1 = kf1.T_cam_world.translation(), t2 = kf2.T_cam_world.translation();
     const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(K1, R1, t1, K2, R2, t2);
-    const std::vector<PairMatch> matches = searchForTriangulation(kf1, kf2, F12, params_);
+    const std::vector<PairMatch> matches = searchForTriangulation(kf1, kf2, F12, params_, TriangulationSearch::Guided);
     const geometry::Matrix34d P1 = geometry::projectionMatrix(K1, R1, t1), P2 = geometry::projectionMatrix(K2, R2, t2);
     const double ratioFactor = params_.scaleConsistencyFactor * kf1.scaleFactors.at(std::min(1, kf1.numLevels() - 1));
 

@@ -109,6 +109,24 @@ struct LocalMappingReport {
          cullKeyFramesMs = 0.0, totalMs = 0.0;
 };
 
+/// A keypoint pair proposed for triangulation: keypoint i1 of the first keyframe, i2 of the second.
+struct PairMatch {
+  std::size_t i1 = 0, i2 = 0;
+};
+
+/// How searchForTriangulation finds the candidates of a keypoint: every free keypoint of the second keyframe
+/// (ORB-SLAM's search without a vocabulary), or only those in grid cells the epipolar band crosses. Both give
+/// the same matches (the guided candidates are a superset of those within the band, visited in the same order).
+enum class TriangulationSearch { Exhaustive, Guided };
+
+/// ORB-SLAM's SearchForTriangulation: keypoints of kf1 and kf2 without a map point, on the epipolar line of F12
+/// (x1^T F12 x2 = 0; chi2 3.84 with kf2's level sigma^2), far enough from the epipole, best descriptor distance
+/// <= maxDescriptorDistance (and the ratio test when nnRatio < 1), one kf1 keypoint per kf2 keypoint, then the
+/// rotation histogram. Exposed for tests and benchmarks; local mapping uses Guided.
+std::vector<PairMatch> searchForTriangulation(const map::KeyFrame& kf1, const map::KeyFrame& kf2,
+                                              const Eigen::Matrix3d& F12, const LocalMappingParams& params,
+                                              TriangulationSearch mode);
+
 class LocalMapper {
  public:
   /// Keeps a reference to `map` (must outlive the mapper). Calls params.check(). Culling and the BA window ask

@@ -1,0 +1,107 @@
+// The guided triangulation search (epipolar-band grid) returns exactly the exhaustive search's matches: on
+// synthetic keyframe pairs with lateral, forward (epipole inside the image), vertical and rotating motion,
+// keypoints on every pyramid level (band widths up to 7 px), pixel noise, repeated descriptors (ambiguity) and
+// keypoints that already have a map point.
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "pslam/geometry/Epipolar.h"
+#include "pslam/mapping/LocalMapper.h"
+
+using namespace pslam;
+using namespace pslam::mapping;
+
+namespace {
+
+map::KeyFrame keyFrameAt(const Eigen::Isometry3d& T_cam_world, const std::vector<Eigen::Vector3d>& points,
+                         const std::vector<cv::Mat>& descriptors, const std::vector<float>& angles,
+                         std::mt19937& rng) {
+  map::KeyFrame kf;
+  kf.T_cam_world = T_cam_world;
+  kf.camera = {700.0, 700.0, 620.0, 188.0, 1241, 376};  // KITTI-like: wide image, epipole may be inside
+  kf.setPyramid(8, 1.2);
+  std::normal_distribution<double> noise(0.0, 0.7);
+  std::uniform_int_distribution<int> octave(0, 7), bit(0, 255);
+  std::normal_distribution<float> angleNoise(0.f, 3.f);
+  std::vector<cv::Mat> rows;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d pc = T_cam_world * points[i];
+    if (pc.z() <= 0.5) continue;
+    const int level = octave(rng);
+    const Eigen::Vector2d px = kf.camera.project(pc) + kf.scaleFactors[level] * Eigen::Vector2d(noise(rng), noise(rng));
+    if (!kf.camera.inImage(px)) continue;
+    kf.keypoints.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, angles[i] + angleNoise(rng), 1.f, level);
+    cv::Mat d = descriptors[i].clone();
+    for (int f = 0; f < 3; ++f) {
+      const int b = bit(rng);
+      d.at<uchar>(0, b / 8) ^= static_cast<uchar>(1 << (b % 8));
+    }
+    rows.push_back(d);
+  }
+  cv::vconcat(rows, kf.descriptors);
+  kf.mapPointIds.assign(kf.keypoints.size(), map::kNoMapPoint);
+  // Every 7th keypoint already has a map point: not a candidate.
+  for (std::size_t k = 0; k < kf.mapPointIds.size(); k += 7) kf.mapPointIds[k] = static_cast<map::MapPointId>(k + 1);
+  return kf;
+}
+
+Eigen::Isometry3d pose(const Eigen::Vector3d& centre, const Eigen::Vector3d& axisAngle) {
+  Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
+  T_world_cam.translation() = centre;
+  if (axisAngle.norm() > 0) T_world_cam.linear() = Eigen::AngleAxisd(axisAngle.norm(), axisAngle.normalized()).toRotationMatrix();
+  return T_world_cam.inverse();
+}
+
+}  // namespace
+
+TEST(TriangulationSearch, GuidedFindsExactlyTheExhaustiveMatches) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> ux(-15, 15), uy(-3, 3), uz(3, 60);
+  std::uniform_int_distribution<int> byte(0, 255);
+  std::vector<Eigen::Vector3d> points;
+  std::vector<cv::Mat> descriptors;
+  std::vector<float> angles;
+  std::uniform_real_distribution<float> angle(10.f, 350.f);
+  for (int i = 0; i < 2500; ++i) {
+    angles.push_back(angle(rng));
+    points.emplace_back(ux(rng), uy(rng), uz(rng));
+    cv::Mat d(1, 32, CV_8UC1);
+    // One descriptor in five repeats an earlier one: ambiguous candidates along the band.
+    if (i > 10 && i % 5 == 0) d = descriptors[static_cast<std::size_t>(i / 2)].clone();
+    else
+      for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
+    descriptors.push_back(d);
+  }
+  struct Motion {
+    const char* name;
+    Eigen::Vector3d centre, axisAngle;
+  };
+  const std::vector<Motion> motions = {
+      {"forward (epipole in the image)", {0.1, 0.0, 1.5}, {0, 0.02, 0}},
+      {"lateral", {1.0, 0.05, 0.1}, {0, 0.03, 0}},
+      {"vertical (steep lines)", {0.05, 0.8, 0.2}, {0.02, 0, 0}},
+      {"diagonal with roll", {0.6, 0.5, 0.8}, {0.01, 0.05, 0.08}},
+  };
+  LocalMappingParams params;
+  params.nnRatio = 0.9;  // exercises the second-best bookkeeping too
+  const map::KeyFrame kf1 = keyFrameAt(pose({0, 0, 0}, {0, 0, 0}), points, descriptors, angles, rng);
+  ASSERT_GT(kf1.numKeypoints(), 1000u);
+  for (const Motion& m : motions) {
+    const map::KeyFrame kf2 = keyFrameAt(pose(m.centre, m.axisAngle), points, descriptors, angles, rng);
+    const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(
+        kf1.camera.K(), kf1.T_cam_world.linear(), kf1.T_cam_world.translation(), kf2.camera.K(),
+        kf2.T_cam_world.linear(), kf2.T_cam_world.translation());
+    for (bool orientation : {true, false}) {
+      params.checkOrientation = orientation;
+      const auto exhaustive = searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::Exhaustive);
+      const auto guided = searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::Guided);
+      EXPECT_GT(exhaustive.size(), 500u) << m.name;
+      ASSERT_EQ(guided.size(), exhaustive.size()) << m.name;
+      for (std::size_t k = 0; k < guided.size(); ++k) {
+        EXPECT_EQ(guided[k].i1, exhaustive[k].i1) << m.name << " match " << k;
+        EXPECT_EQ(guided[k].i2, exhaustive[k].i2) << m.name << " match " << k;
+      }
+    }
+  }
+}
