@@ -138,6 +138,10 @@ TEST(SlamE2E, InitializesTracksAndStaysCloseToGroundTruth) {
   EXPECT_EQ(report["frames"].size(), static_cast<std::size_t>(kFrames));
   EXPECT_TRUE(report["timings"].contains("extraction"));
   EXPECT_TRUE(report["timings"].contains("local_ba"));
+  // every step of local mapping per keyframe
+  for (const char* stage : {"mapping_insert", "culling_points", "triangulation", "fusion", "culling_keyframes",
+                            "mapping_total"})
+    EXPECT_TRUE(report["timings"].contains(stage)) << stage;
   EXPECT_TRUE(report["config"].get<std::string>().find("nFeatures") != std::string::npos);
   EXPECT_EQ(report["summary"]["frames_tracked"], s.framesTracked);
 }

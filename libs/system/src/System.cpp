@@ -104,9 +104,14 @@ struct System::Impl {
                             {"fused", r.fusedPoints},
                             {"map_points", map.numMapPoints()},
                             {"keyframes", map.numKeyFrames()}});
+      // Every step of a keyframe's local mapping (issue: mapping cost per keyframe, doc/performance.md).
+      mappingTimings.add("mapping_insert", r.processMs);  // keyframe insertion, model updates of its points
+      mappingTimings.add("culling_points", r.cullPointsMs);
       mappingTimings.add("triangulation", r.triangulationMs);
-      mappingTimings.add("local_ba", r.localBaMs);
       mappingTimings.add("fusion", r.fusionMs);
+      mappingTimings.add("local_ba", r.localBaMs);
+      mappingTimings.add("culling_keyframes", r.cullKeyFramesMs);
+      mappingTimings.add("mapping_total", r.totalMs);
     }
   }
 
