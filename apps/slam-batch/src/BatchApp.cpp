@@ -2,16 +2,11 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
 
 #include <cerrno>
-#include <chrono>
-#include <iostream>
 #include <cstring>
+#include <iostream>
 #include <map>
-#include <optional>
-#include <thread>
 
 #include "pslam/batch/Collect.h"
 #include "pslam/core/Error.h"
@@ -81,36 +76,10 @@ int commandRunOne(const CommonOptions& c, const std::string& runIdIn, const fs::
     if (!c.quiet) std::cerr << "slam-batch: " << runId << " is already done\n";
     return 0;
   }
-  installStopHandlers();
-  std::optional<RunExecution> running;
-  running.emplace(m, *run);
-  RunExecution& exec = *running;
-  for (;;) {
-    int status = 0;
-    struct rusage ru {};
-    const pid_t pid = ::wait4(exec.pid(), &status, WNOHANG, &ru);
-    if (pid == exec.pid()) {
-      const double cpu = ru.ru_utime.tv_sec + ru.ru_stime.tv_sec + 1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
-      const RunRecord rec = exec.finish(status, cpu);
-      if (!c.quiet)
-        std::cerr << "slam-batch: " << runId << " " << rec.status << " in " << rec.wallSeconds << " s"
-                  << (rec.error.empty() ? "" : ": " + rec.error) << "\n";
-      return rec.status == "ok" ? 0 : 1;
-    }
-    if (pid < 0 && errno != EINTR)
-      throw Error(std::string("slam-batch: waiting for slam-run failed (") + std::strerror(errno) + ")");
-    if (const int sig = stopSignal()) {
-      exec.signal(SIGTERM);
-      int st = 0;
-      while (::waitpid(exec.pid(), &st, 0) < 0 && errno == EINTR) {
-      }
-      exec.markReaped();
-      std::cerr << "slam-batch: " << runId << " stopped by signal " << sig << "; its temporary folder is removed\n";
-      running.reset();  // removes the temporary folder before the process ends
-      reraise(sig);
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
+  // The same execution as `run` (temporary folder, run.json, rename, stop signals), for this one run.
+  LocalRunOptions o;
+  o.progress = !c.quiet;
+  return runLocally(m, {run}, o, 0).failed == 0 ? 0 : 1;
 }
 
 int commandSubmit(const CommonOptions& c, const SlurmOptions& o) {

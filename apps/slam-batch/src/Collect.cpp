@@ -194,14 +194,12 @@ std::vector<RunResult> evaluateRuns(const Manifest& m, bool progress) {
   return rows;
 }
 
-std::string resultsCsv(const std::vector<RunResult>& rows) {
+std::string resultsCsv(const Manifest& m, const std::vector<RunResult>& rows) {
   std::ostringstream os;
   os << "run,dataset,variant,seed,status,frames,tracked,tracked_pct,init_frame,keyframes,map_points,resets,"
         "relocalizations,poses_evaluated,ate_rmse_m,ate_median_m,rpe_t_rmse_m,re_mean_deg,dr_pct,error\n";
   for (const RunResult& r : rows) {
-    const auto parts = r.run->id;
-    const auto s1 = parts.find('/'), s2 = parts.find('/', s1 + 1);
-    os << r.run->id << ',' << parts.substr(0, s1) << ',' << parts.substr(s1 + 1, s2 - s1 - 1) << ',' << r.run->seed
+    os << r.run->id << ',' << m.dataset(*r.run).name << ',' << m.variant(*r.run).name << ',' << r.run->seed
        << ',' << r.status << ',' << intOrEmpty(r.frames) << ',' << intOrEmpty(r.tracked) << ','
        << num(r.trackedPercent()) << ',' << intOrEmpty(r.initFrame) << ',' << intOrEmpty(r.keyFrames) << ','
        << intOrEmpty(r.mapPoints) << ',' << intOrEmpty(r.resets) << ',' << intOrEmpty(r.relocalizations) << ','
@@ -367,8 +365,7 @@ eval::Plot atePlot(const Manifest& m, const std::vector<RunResult>& rows, std::s
 
 std::vector<fs::path> collect(const Manifest& m, const std::vector<RunResult>& rows) {
   OutputSet outputs({m.file});
-  std::vector<std::pair<AtomicOutput*, std::function<void(const fs::path&)>>> writers;
-  const std::string csv = resultsCsv(rows);
+  const std::string csv = resultsCsv(m, rows);
   const nlohmann::json json = resultsJson(m, rows);
   const std::string md = summaryMarkdown(m, rows);
   std::vector<fs::path> paths;

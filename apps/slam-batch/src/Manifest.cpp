@@ -251,7 +251,9 @@ Manifest loadManifest(const fs::path& fileIn, const fs::path& outputOverride) {
       base.overrides = d.overrides;
       base.overrides.insert(base.overrides.end(), v.overrides.begin(), v.overrides.end());
       try {
-        base.effectiveConfig = system::loadSlamParams(base.config.string(), base.overrides).toIniText();
+        const system::SlamParams params = system::loadSlamParams(base.config.string(), base.overrides);
+        base.effectiveConfig = params.toIniText();
+        base.threaded = params.system.threaded;
       } catch (const std::exception& e) {
         rd.fail(vs[vi], "dataset '" + d.name + "' x variant '" + v.name + "': " + oneLineMessage(e));
       }

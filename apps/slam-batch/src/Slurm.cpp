@@ -15,7 +15,6 @@
 #include "pslam/batch/Runs.h"
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
-#include "pslam/system/SlamParams.h"
 
 extern char** environ;
 
@@ -118,7 +117,7 @@ SlurmSubmission submitToSlurm(const Manifest& m, const std::vector<const RunSpec
   // Sequential runs use one CPU; a threaded variant (local mapping in a second thread) two.
   std::string cpus = "1";
   for (const RunSpec* r : runs)
-    if (system::loadSlamParams(r->config.string(), r->overrides).system.threaded) cpus = "2";
+    if (r->threaded) cpus = "2";
 
   const fs::path dir = m.output / "slurm";
   const fs::path logDir = dir / "logs";
@@ -177,26 +176,25 @@ std::map<std::string, std::string> slurmStates(const Manifest& m, std::string& e
     list += (list.empty() ? "" : ",") + jobId;
   }
   if (list.empty()) return states;
+  auto markAllEnded = [&] {
+    for (const auto& entry : tasksOf) {
+      std::ifstream in(entry.second);
+      for (std::string id; std::getline(in, id);)
+        if (!trim(id).empty()) states[trim(id)] = "ENDED";
+    }
+  };
   const CommandOutput res = runCommand({"squeue", "--noheader", "--array", "--jobs=" + list, "--format=%i %T"});
   if (res.exitCode != 0) {
     // squeue says "Invalid job id specified" once every listed job has left the queue.
     if (res.output.find("Invalid job id") != std::string::npos) {
-      for (const auto& [job, tasks] : tasksOf) {
-        std::ifstream in(tasks);
-        for (std::string id; std::getline(in, id);)
-          if (!trim(id).empty()) states[trim(id)] = "ENDED";
-      }
+      markAllEnded();
       return states;
     }
     error = res.exitCode == 127 ? "squeue not found" : oneLineMessage(trim(res.output));
     return states;
   }
   // Every run a submission listed starts as ENDED (left the queue); squeue's lines then say which are not.
-  for (const auto& [job, tasks] : tasksOf) {
-    std::ifstream in(tasks);
-    for (std::string id; std::getline(in, id);)
-      if (!trim(id).empty()) states[trim(id)] = "ENDED";
-  }
+  markAllEnded();
   std::istringstream lines(res.output);
   std::string task, state;
   while (lines >> task >> state) {

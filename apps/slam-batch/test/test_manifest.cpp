@@ -211,7 +211,7 @@ TEST(Collect, CsvAndSummaryShowEveryRunWithItsStatus) {
   rows[1].ateRmse = 0.02;
   rows[2].status = "failed";
   rows[2].error = "slam-run: error: x, \"y\"";
-  const std::string csv = resultsCsv(rows);
+  const std::string csv = resultsCsv(m, rows);
   EXPECT_NE(csv.find("\na/heuristic/seed-1,a,heuristic,1,ok,40,30,75,"), std::string::npos) << csv;
   EXPECT_NE(csv.find(",0.0123457,"), std::string::npos) << csv;
   EXPECT_NE(csv.find("a/prob/seed-1,a,prob,1,failed,"), std::string::npos);

@@ -219,7 +219,7 @@ class EpipolarBandGrid {
         const double xa = x0_ + col * kCell, xb = xa + kCell;
         const double ya = -(a * xa + c) / b, yb = -(a * xb + c) / b;
         const int r0 = std::max(0, rowOf(std::min(ya, yb) - widen)), r1 = std::min(rows_ - 1, rowOf(std::max(ya, yb) + widen));
-        for (int row = r0; row <= r1; ++row) append(cellIndex(col, row), out);
+        for (int row = r0; row <= r1; ++row) mark(cellIndex(col, row));
       }
     } else {  // x = -(b y + c) / a over each row
       const double widen = halfWidth_ * norm / std::abs(a);
@@ -227,7 +227,7 @@ class EpipolarBandGrid {
         const double ya = y0_ + row * kCell, yb = ya + kCell;
         const double xa = -(b * ya + c) / a, xb = -(b * yb + c) / a;
         const int c0 = std::max(0, colOf(std::min(xa, xb) - widen)), c1 = std::min(cols_ - 1, colOf(std::max(xa, xb) + widen));
-        for (int col = c0; col <= c1; ++col) append(cellIndex(col, row), out);
+        for (int col = c0; col <= c1; ++col) mark(cellIndex(col, row));
       }
     }
     for (std::size_t w = 0; w < bits_.size(); ++w)
@@ -248,7 +248,7 @@ class EpipolarBandGrid {
   std::size_t cellIndex(int col, int row) const {
     return static_cast<std::size_t>(row) * static_cast<std::size_t>(cols_) + static_cast<std::size_t>(col);
   }
-  void append(std::size_t cell, std::vector<std::size_t>& /*out*/) const {
+  void mark(std::size_t cell) const {
     for (const std::size_t n : cells_[cell]) bits_[n >> 6] |= std::uint64_t{1} << (n & 63);
   }
   double halfWidth_, x0_ = 0, y0_ = 0;

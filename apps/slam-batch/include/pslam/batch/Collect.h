@@ -37,7 +37,7 @@ struct RunResult {
 /// Evaluates every run of the manifest (those not finished get their status and no metrics).
 std::vector<RunResult> evaluateRuns(const Manifest& m, bool progress);
 
-std::string resultsCsv(const std::vector<RunResult>& rows);
+std::string resultsCsv(const Manifest& m, const std::vector<RunResult>& rows);
 nlohmann::json resultsJson(const Manifest& m, const std::vector<RunResult>& rows);
 std::string summaryMarkdown(const Manifest& m, const std::vector<RunResult>& rows);
 

@@ -57,6 +57,7 @@ struct RunSpec {
   std::filesystem::path config;      ///< effective ini file
   std::vector<std::string> overrides;
   std::string effectiveConfig;       ///< the ini text after overrides (SlamParams::toIniText)
+  bool threaded = false;             ///< [System] threaded: local mapping in a second thread (2 CPUs)
   std::string hash;                  ///< 16 hex digits over effective config, rawlog identity, seed, range
 };
 
