@@ -1,6 +1,7 @@
 #include "pslam/optimize/BundleAdjustment.h"
 
 #include <algorithm>
+#include <set>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -127,6 +128,13 @@ double rmsPixels(const BAProblem& problem, const State& state, const std::vector
 }
 
 // One Levenberg-Marquardt pass over the observations not excluded. Returns the Ceres summary.
+//
+// Ceres orders the blocks of a Schur group by address. The keypoints' poses and inverse depths live in the
+// State's id-ordered vectors, but the factors' landmark and shared blocks are owned by the factors, each its own
+// heap object, so their addresses -- relative to each other and to the State's vectors -- change with the heap's
+// history. The pass therefore optimizes one contiguous copy laid out as [poses | shared blocks | inverse depths |
+// factor landmarks] (ids in order, factor blocks in first-use order) and writes it back afterwards: the
+// elimination order, and with it every floating-point result, is the same from run to run and process to process.
 ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const std::vector<bool>& excluded,
                                  const std::vector<bool>& factorExcluded,
                                  const std::map<KeyFrameId, bool>& keyframeFixed, bool robust, int iterations,
@@ -134,9 +142,56 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
   ceres::HuberLoss huber(params.huberDelta);
   ceres::Problem::Options problemOptions;
   problemOptions.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+
+  struct FactorResidual {
+    std::size_t factor;
+    ceres::CostFunction* cost;
+    std::vector<double*> blocks;  ///< original blocks
+  };
+  std::vector<FactorResidual> factorResiduals;
+  std::vector<std::pair<double*, int>> shared, landmarks;  ///< factor-owned blocks (original, size), first use
+  std::set<double*> seenShared, seenLandmark;
+  for (std::size_t i = 0; i < problem.factors.size(); ++i) {
+    if (factorExcluded[i]) continue;
+    const BAFactor& f = *problem.factors[i];
+    FactorResidual r{i, f.newCostFunction(), factorBlocks(f, state.poses)};
+    const std::vector<int>& sizes = r.cost->parameter_block_sizes();
+    const std::size_t nPoses = f.keyframes().size(), nLandmark = f.landmarkBlocks().size();
+    for (std::size_t b = nPoses; b < r.blocks.size(); ++b) {
+      const bool isLandmark = b < nPoses + nLandmark;
+      if ((isLandmark ? seenLandmark : seenShared).insert(r.blocks[b]).second)
+        (isLandmark ? landmarks : shared).emplace_back(r.blocks[b], sizes.at(b));
+    }
+    factorResiduals.push_back(std::move(r));
+  }
+  std::vector<std::pair<double*, int>> layout;
+  for (auto& [id, pose] : state.poses) layout.emplace_back(pose, kPoseSize);
+  layout.insert(layout.end(), shared.begin(), shared.end());
+  for (auto& [id, rho] : state.rhos) layout.emplace_back(rho, 1);
+  layout.insert(layout.end(), landmarks.begin(), landmarks.end());
+  std::size_t total = 0;
+  for (const auto& [block, size] : layout) total += static_cast<std::size_t>(size);
+  std::vector<double> storage(total);
+  std::map<const double*, double*> local;
+  std::size_t offset = 0;
+  for (const auto& [block, size] : layout) {
+    std::copy(block, block + size, storage.data() + offset);
+    local[block] = storage.data() + offset;
+    offset += static_cast<std::size_t>(size);
+  }
+  auto L = [&local](const double* block) { return local.at(block); };
+  // Written back on every exit (the values are unchanged when nothing is solved).
+  struct WriteBack {
+    const std::vector<std::pair<double*, int>>& layout;
+    const std::map<const double*, double*>& local;
+    ~WriteBack() {
+      for (const auto& [block, size] : layout) std::copy(local.at(block), local.at(block) + size, block);
+    }
+  } writeBack{layout, local};
+
   ceres::Problem ceresProblem(problemOptions);
-  std::vector<double*> factorLandmarks;  ///< distinct landmark blocks of the factors, in first-use order
-  std::vector<double*> factorShared;     ///< distinct shared blocks of the factors
+  std::vector<double*> factorLandmarks;  ///< distinct local landmark blocks of the factors, in first-use order
+  std::vector<double*> factorShared;     ///< distinct local shared blocks of the factors
   residualBlocks = 0;
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     if (excluded[i]) continue;
@@ -145,30 +200,31 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
     if (o.keyframe == p.anchor) continue;  // constant residual (see InverseDepthReprojectionError.h)
     ceresProblem.AddResidualBlock(
         new InverseDepthReprojectionCost(p.bearing, o.pixel, o.invSigma2, problem.keyframes.at(o.keyframe).camera),
-        robust ? &huber : nullptr, state.poses.at(p.anchor), state.poses.at(o.keyframe), state.rhos.at(o.point));
+        robust ? &huber : nullptr, L(state.poses.at(p.anchor)), L(state.poses.at(o.keyframe)), L(state.rhos.at(o.point)));
     ++residualBlocks;
   }
   std::vector<std::unique_ptr<ceres::HuberLoss>> factorLosses;
-  for (std::size_t i = 0; i < problem.factors.size(); ++i) {
-    if (factorExcluded[i]) continue;
-    const BAFactor& f = *problem.factors[i];
+  for (FactorResidual& r : factorResiduals) {
+    const BAFactor& f = *problem.factors[r.factor];
     ceres::LossFunction* loss = nullptr;
     if (robust && f.huberDelta() > 0.0) {
       factorLosses.push_back(std::make_unique<ceres::HuberLoss>(f.huberDelta()));
       loss = factorLosses.back().get();
     }
-    const std::vector<double*> blocks = factorBlocks(f, state.poses);
-    ceresProblem.AddResidualBlock(f.newCostFunction(), loss, blocks);
+    std::vector<double*> blocks;
+    for (double* b : r.blocks) blocks.push_back(L(b));
+    ceresProblem.AddResidualBlock(r.cost, loss, blocks);
     const std::vector<double*> landmark = f.landmarkBlocks();
     for (std::size_t b = 0; b < landmark.size(); ++b) {
-      if (std::find(factorLandmarks.begin(), factorLandmarks.end(), landmark[b]) != factorLandmarks.end()) continue;
-      factorLandmarks.push_back(landmark[b]);
-      if (ceres::Manifold* m = f.newLandmarkManifold(b)) ceresProblem.SetManifold(landmark[b], m);
-      if (f.landmarkFixed()) ceresProblem.SetParameterBlockConstant(landmark[b]);
+      double* block = L(landmark[b]);
+      if (std::find(factorLandmarks.begin(), factorLandmarks.end(), block) != factorLandmarks.end()) continue;
+      factorLandmarks.push_back(block);
+      if (ceres::Manifold* m = f.newLandmarkManifold(b)) ceresProblem.SetManifold(block, m);
+      if (f.landmarkFixed()) ceresProblem.SetParameterBlockConstant(block);
     }
-    for (double* shared : f.sharedBlocks())
-      if (std::find(factorShared.begin(), factorShared.end(), shared) == factorShared.end())
-        factorShared.push_back(shared);
+    for (double* sharedBlock : f.sharedBlocks())
+      if (std::find(factorShared.begin(), factorShared.end(), L(sharedBlock)) == factorShared.end())
+        factorShared.push_back(L(sharedBlock));
     ++residualBlocks;
   }
   ceres::Solver::Summary summary;
@@ -176,13 +232,15 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
 
   // Schur ordering: every inverse depth in the first (eliminated) group, poses in the second.
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  for (auto& [id, pose] : state.poses) {
+  for (auto& [id, poseBlock] : state.poses) {
+    double* pose = L(poseBlock);
     if (!ceresProblem.HasParameterBlock(pose)) continue;
     ceresProblem.SetManifold(pose, new PoseManifold);
     if (keyframeFixed.at(id)) ceresProblem.SetParameterBlockConstant(pose);
     ordering->AddElementToGroup(pose, 1);
   }
-  for (auto& [id, rho] : state.rhos) {
+  for (auto& [id, rhoBlock] : state.rhos) {
+    double* rho = L(rhoBlock);
     if (!ceresProblem.HasParameterBlock(rho)) continue;
     if (problem.points.at(id).fixed) ceresProblem.SetParameterBlockConstant(rho);
     ordering->AddElementToGroup(rho, 0);

@@ -1,5 +1,6 @@
 #include "pslam/optimize/PhotometricPoseFactor.h"
 
+#include <algorithm>
 #include <string>
 
 #include "pslam/core/Error.h"
@@ -85,7 +86,14 @@ PoseOptimizationResult optimizePoseCoarseToFine(const Eigen::Isometry3d& T_cam_w
         factors.push_back(f->atLevel(level));  // level 0 keeps every factor, so that indices match `direct`
     }
     factors.insert(factors.end(), otherFactors.begin(), otherFactors.end());
-    result = optimizePose(T, camera, observations, params, {}, factors);
+    // The coarse levels only bring the estimate into the basin of the finer ones: one robust round each (no
+    // outlier re-classification, which the full rounds at level 0 do).
+    PoseOptimizationParams levelParams = params;
+    if (level > 0) {
+      levelParams.rounds = 1;
+      levelParams.robustRounds = std::min(1, params.robustRounds);
+    }
+    result = optimizePose(T, camera, observations, levelParams, {}, factors);
     T = result.T_cam_world;
   }
   return result;

@@ -58,7 +58,9 @@ class PhotometricPoseFactor : public PoseFactor {
 /// level from `coarsestLevel` down to 0, the direct factors evaluated at that level (PhotometricPoseFactor::
 /// atLevel; points without intensities at a level sit it out), each level starting at the pose of the previous
 /// one. Keypoint observations and `otherFactors` take part unchanged at every level (pass none for direct
-/// alignment alone). The target pyramids need more than `coarsestLevel` levels (else pslam::Error). Returns the
+/// alignment alone). The coarse levels (> 0) run one robust round of `params` (they only bring the estimate into
+/// the basin of the finer levels); level 0 runs all rounds with the outlier classification.
+/// The target pyramids need more than `coarsestLevel` levels (else pslam::Error). Returns the
 /// level-0 result; its factorOutlier lists `direct` first, then `otherFactors`.
 PoseOptimizationResult optimizePoseCoarseToFine(const Eigen::Isometry3d& T_cam_world_initial,
                                                 const map::CameraIntrinsics& camera,
