@@ -98,6 +98,7 @@ Frame makeFrame(const datasets::Frame& input, const geometry::PinholeCamera& cam
   // The other channels travel with the frame (shared, not copied) for the front ends that use them: the grey
   // image for direct features (§3.3), NORMALS for the Manhattan frame (§4.4), DEPTH for evaluation.
   f.grey = grey;
+  f.semantic = input.semantic;
   f.normals = input.normals;
   f.depth = input.depth;
   f.depthUnits = input.depthUnits;

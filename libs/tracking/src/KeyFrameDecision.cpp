@@ -10,7 +10,11 @@ bool needNewKeyFrame(const KeyFrameDecisionInput& in, const KeyFrameDecisionPara
   const bool c1a = in.frameIndex >= in.lastKeyFrameFrame + static_cast<std::size_t>(p.maxFrames);
   const bool c1b = in.frameIndex >= in.lastKeyFrameFrame + static_cast<std::size_t>(p.minFrames) && in.localMappingIdle;
   const bool c2 = in.trackedInliers < p.refRatio * in.referenceTrackedPoints && in.trackedInliers > p.minInliers;
-  return (c1a || c1b) && c2;
+  // The same test on the direct points: the frame still tracks with them but sees too few of the reference
+  // keyframe's (a frame whose keypoints are too few to pass c2 is still mapped: its direct points carry it).
+  const bool c2direct = in.directSupported && in.directReferenceActive > 0 &&
+                        in.directReferenceInView < p.directRatio * in.directReferenceActive;
+  return (c1a || c1b) && (c2 || c2direct);
 }
 
 }  // namespace pslam::tracking

@@ -9,6 +9,23 @@ optimize::PoseOptimizationResult FullPoseSolver::solve(const PoseSolveRequest& r
                                 r.factors);
 }
 
+optimize::PoseOptimizationResult PoseSolver::solveCoarseToFine(
+    const PoseSolveRequest& request, const std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>>& direct,
+    int /*coarsestLevel*/) const {
+  PoseSolveRequest r = request;
+  r.factors.clear();
+  for (const auto& f : direct) r.factors.push_back(f->level() == 0 ? f : f->atLevel(0));
+  r.factors.insert(r.factors.end(), request.factors.begin(), request.factors.end());
+  return solve(r);
+}
+
+optimize::PoseOptimizationResult FullPoseSolver::solveCoarseToFine(
+    const PoseSolveRequest& r, const std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>>& direct,
+    int coarsestLevel) const {
+  return optimize::optimizePoseCoarseToFine(r.T_cam_world_initial, r.camera, r.observations, direct, coarsestLevel,
+                                            params_, r.factors);
+}
+
 optimize::PoseOptimizationResult TranslationOnlyPoseSolver::solve(const PoseSolveRequest& r) const {
   if (!r.rotationPrior)
     return optimize::optimizePose(r.T_cam_world_initial, r.camera, r.observations, params_, r.initialOutliers,

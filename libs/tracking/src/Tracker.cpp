@@ -26,6 +26,9 @@ nlohmann::json FrameReport::toJson() const {
           {"method", method},     {"features", features},   {"matches", matches},
           {"inliers", inliers},   {"local_map_points", localMapPoints}, {"keyframe", keyFrame},
           {"active_matches", activeMatches}, {"inactive_matches", inactiveMatches}, {"model_updates", modelUpdates},
+          {"direct_factors", direct.factors}, {"direct_inliers", direct.inliers}, {"direct_active", direct.active},
+          {"direct_inactive", direct.inactive}, {"direct_measured", direct.measured},
+          {"direct_reference_in_view", direct.referenceInView}, {"direct_reference_active", direct.referenceActive},
           {"map_points", mapPoints}, {"keyframes", keyFrames}, {"message", message}};
 }
 
@@ -102,8 +105,14 @@ int Tracker::updatePointModels(const Frame& frame) {
   return updates;
 }
 
+bool Tracker::poseSupported(int keypointInliers, int minKeypointInliers) const {
+  return keypointInliers >= minKeypointInliers || (directFactors_ > 0 && directInliers_ >= direct_->minInliers());
+}
+
 int Tracker::optimizeFramePose(Frame& frame) {
   recordMeasurements(frame);
+  directFactors_ = directInliers_ = 0;
+  directOutliers_.clear();
   std::vector<optimize::PoseObservation> obs;
   std::vector<std::size_t> keypointOf;
   std::vector<std::size_t> evidence;  ///< matches of points the policy does not let us use (§3.4.2: measured only)
@@ -124,7 +133,16 @@ int Tracker::optimizeFramePose(Frame& frame) {
     obs.push_back(o);
     keypointOf.push_back(i);
   }
-  if (obs.size() < 3) {
+  std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>> direct;
+  // Direct points join the final (local-map) optimization of every frame; the earlier ones (motion model,
+  // reference keyframe) only when the keypoints alone are too few to carry them, which saves most of their cost.
+  const bool wantDirect = direct_ && useDirect_ && (finalOptimization_ || static_cast<int>(obs.size()) < 2 * params_.minPoseInliers);
+  if (wantDirect) {
+    std::optional<ScopedStage> stage;
+    if (timings_) stage.emplace(*timings_, "direct_factors");
+    direct = direct_->poseFactors(frame, map_, referenceKeyFrame_);
+  }
+  if (obs.size() < 3 && direct.empty()) {
     for (std::size_t i : evidence) frame.mapPointIds[i] = map::kNoMapPoint;
     return 0;
   }
@@ -135,9 +153,13 @@ int Tracker::optimizeFramePose(Frame& frame) {
   request.camera = frame.camera;
   request.observations = std::move(obs);
   request.rotationPrior = frame.rotationPrior;
-  const optimize::PoseOptimizationResult r = solver_->solve(request);
+  const optimize::PoseOptimizationResult r =
+      direct.empty() ? solver_->solve(request) : solver_->solveCoarseToFine(request, direct, direct_->coarsestLevel());
   frame.T_cam_world = r.T_cam_world;
   frame.hasPose = true;
+  directFactors_ = static_cast<int>(direct.size());
+  directOutliers_.assign(r.factorOutlier.begin(), r.factorOutlier.begin() + static_cast<long>(direct.size()));
+  for (bool o : directOutliers_) directInliers_ += o ? 0 : 1;
   int inliers = 0;
   for (std::size_t k = 0; k < keypointOf.size(); ++k) {
     const std::size_t i = keypointOf[k];
@@ -197,8 +219,9 @@ bool Tracker::trackWithMotionModel(Frame& frame) {
     frame.resetMatches();
     n = search(2 * params_.motionModelRadius);
   }
-  if (n < params_.minMotionMatches) return false;
-  return optimizeFramePose(frame) >= params_.minPoseInliers;
+  // With direct points the photometric alignment can carry a frame whose keypoint matches are too few (§3.4.2).
+  if (n < params_.minMotionMatches && !direct_) return false;
+  return poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
 }
 
 bool Tracker::trackReferenceKeyFrame(Frame& frame) {
@@ -211,18 +234,20 @@ bool Tracker::trackReferenceKeyFrame(Frame& frame) {
   std::vector<int> rows;
   for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
     if (measurable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
-  if (static_cast<int>(rows.size()) < params_.minReferenceMatches) return false;
+  if (static_cast<int>(rows.size()) < params_.minReferenceMatches && !direct_) return false;
   cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
   for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
   features::BruteForceParams bp;
   bp.ratio = params_.referenceRatio;
   bp.maxDistance = params_.referenceMaxDistance;
   bp.crossCheck = true;
-  const auto matches = features::matchBruteForce(query, frame.descriptors, bp);
+  const auto matches = rows.empty() || frame.descriptors.empty()
+                           ? std::vector<features::IndexMatch>{}
+                           : features::matchBruteForce(query, frame.descriptors, bp);
   for (const auto& m : matches) frame.mapPointIds[m.i2] = kf.mapPointIds[rows[m.i1]];
-  if (static_cast<int>(matches.size()) < params_.minReferenceMatches) return false;
+  if (static_cast<int>(matches.size()) < params_.minReferenceMatches && !direct_) return false;
   frame.T_cam_world = last_.hasPose ? last_.T_cam_world : kf.T_cam_world;
-  return optimizeFramePose(frame) >= params_.minPoseInliers;
+  return poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
 }
 
 void Tracker::updateLocalKeyFrames(const Frame& frame) {
@@ -233,6 +258,10 @@ void Tracker::updateLocalKeyFrames(const Frame& frame) {
     for (const auto& [kf, k] : map_.mapPoint(id).observations) ++counter[kf];
   }
   localKeyFrames_.clear();
+  // A frame tracked by direct points alone has no keypoint matches: its local map is then the reference
+  // keyframe's neighbourhood, so that keypoint matches can come back (never the case without direct points:
+  // local-map tracking needs keypoint inliers then).
+  if (counter.empty() && direct_ && map_.hasKeyFrame(referenceKeyFrame_)) counter[referenceKeyFrame_] = 1;
   if (counter.empty()) return;
   std::set<map::KeyFrameId> inLocal;
   int best = -1;
@@ -306,7 +335,9 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
   sp.ratio = params_.localMapRatio;
   sp.checkOrientation = false;  // ORB-SLAM's local-map search has no rotation check
   searchByProjection(frame, frame.T_cam_world, cands, sp);
+  finalOptimization_ = true;
   const int inliers = optimizeFramePose(frame);
+  finalOptimization_ = false;
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId id = frame.mapPointIds[i];
     if (mapUpdates_ && id != map::kNoMapPoint && map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).foundCount;
@@ -434,6 +465,10 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
       ScopedStage st(timings, "initialization");
       init = initializer_->process(frame, map_, rng_, &reference);
     }
+    if (init.initialized) {
+      res.initialReferenceGrey = reference.grey;
+      res.initialReferenceSemantic = reference.semantic;
+    }
     rep.matches = init.matches;
     rep.message = init.message;
     if (init.initialized) {
@@ -462,6 +497,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   bool relocalized = false;
   {
     ScopedStage st(timings, "matching");
+    useDirect_ = true;  // the motion-model, reference and local-map attempts; relocalization has no pose guess
     if (!lost_) {
       if (haveVelocity_) {
         ok = trackWithMotionModel(frame);
@@ -475,7 +511,9 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   }
   if (!ok) {
     ScopedStage st(timings, "relocalization");
+    useDirect_ = false;
     ok = relocalize(frame);
+    useDirect_ = true;
     rep.method = "relocalization";
     if (ok) {
       relocalized = true;
@@ -492,8 +530,9 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
     rep.inliers = inliers;
     rep.localMapPoints = cands;
     const bool recentReloc = relocalizedEver_ && frame.index < lastRelocFrame_ + static_cast<std::size_t>(params_.keyFrames.maxFrames);
-    ok = inliers >= (recentReloc ? params_.minInliersAfterReloc : params_.minLocalMapInliers);
+    ok = poseSupported(inliers, recentReloc ? params_.minInliersAfterReloc : params_.minLocalMapInliers);
   }
+  useDirect_ = false;
 
   if (!ok) {
     rep.status = FrameStatus::Lost;
@@ -525,6 +564,10 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
     if (id == map::kNoMapPoint || frame.outlier[i]) continue;
     (usable(id) ? rep.activeMatches : rep.inactiveMatches)++;
   }
+  if (direct_ && mapUpdates_) {
+    ScopedStage st(timings, "direct_update");
+    rep.direct = direct_->afterTracking(frame, map_, directOutliers_);
+  }
   if (last_.hasPose && !relocalized) {
     velocity_ = frame.T_cam_world * last_.T_cam_world.inverse();
     haveVelocity_ = true;
@@ -544,6 +587,9 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   // measurement activated count, as they do in the reference keyframe's count.
   kin.trackedInliers = policy_ ? rep.activeMatches : rep.inliers;
   kin.localMappingIdle = localMappingIdle_;
+  kin.directSupported = directFactors_ > 0 && directInliers_ >= direct_->minInliers();
+  kin.directReferenceInView = rep.direct.referenceInView;
+  kin.directReferenceActive = rep.direct.referenceActive;
   if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {
     res.newKeyFrames.push_back(createKeyFrame(frame));
     rep.keyFrame = true;

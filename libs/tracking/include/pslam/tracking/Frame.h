@@ -31,6 +31,7 @@ struct Frame {
   std::vector<std::array<float, 3>> semanticProbabilities;  ///< per keypoint, empty without SEMANTIC
   // Other channels of the rawlog frame (DESIGN.md §3), registered to the raw image; empty when absent.
   cv::Mat grey;             ///< CV_8UC1 image the keypoints were extracted from (direct features, §3.3)
+  cv::Mat semantic;         ///< SEMANTIC, CV_8UC3 P(static, dynamic, invalid) x 255 (direct points' class evidence)
   cv::Mat normals;          ///< NORMALS, CV_8UC3 (Manhattan frame, §4.4)
   cv::Mat depth;            ///< DEPTH, CV_16UC1
   double depthUnits = 0.0;  ///< metres per depth unit

@@ -15,6 +15,10 @@ struct KeyFrameDecisionInput {
   int referenceTrackedPoints = 0;     ///< points of the reference keyframe seen by >= nMinObs keyframes
   int trackedInliers = 0;             ///< inlier matches of the current frame after local-map tracking
   bool localMappingIdle = true;       ///< always true in the sequential mode
+  // Direct points (§3.4.3: "we only consider active points ... in the decision"); all 0 without them.
+  bool directSupported = false;       ///< the direct points alone carried the pose (enough inliers)
+  int directReferenceInView = 0;      ///< active points hosted in the reference keyframe that the frame sees
+  int directReferenceActive = 0;      ///< active points hosted in the reference keyframe
 };
 
 struct KeyFrameDecisionParams {
@@ -22,6 +26,7 @@ struct KeyFrameDecisionParams {
   int maxFrames = 30;
   double refRatio = 0.9;
   int minInliers = 15;
+  double directRatio = 0.5;
 
   template <class V>
   void visitFields(V& v) {
@@ -31,6 +36,8 @@ struct KeyFrameDecisionParams {
                 "ORB-SLAM mMaxFrames = camera fps");
     PSLAM_FIELD(v, refRatio, inLeftOpen(0, 1), "monocular thRefRatio");
     PSLAM_FIELD(v, minInliers, atLeast(0), "the frame must still track more than this");
+    PSLAM_FIELD(v, directRatio, inClosed(0, 1),
+                "direct points: a keyframe when the frame sees fewer than this share of the reference's active ones");
   }
 };
 

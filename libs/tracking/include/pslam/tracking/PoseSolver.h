@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "pslam/optimize/PhotometricPoseFactor.h"
 #include "pslam/optimize/PoseFactor.h"
 #include "pslam/optimize/PoseOptimizer.h"
 
@@ -33,6 +34,12 @@ class PoseSolver {
   virtual std::string name() const = 0;
   /// Refines T_cam_world; outlier flags per observation (and per factor) in the result.
   virtual optimize::PoseOptimizationResult solve(const PoseSolveRequest& request) const = 0;
+  /// The request joined by direct points, optimized coarse to fine (§3.4.2: DSO's pyramid levels from
+  /// `coarsestLevel` down to 0, the keypoints at every level). factorOutlier lists `direct` first, then
+  /// request.factors. The default runs solve() with the direct factors at level 0 only.
+  virtual optimize::PoseOptimizationResult solveCoarseToFine(
+      const PoseSolveRequest& request, const std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>>& direct,
+      int coarsestLevel) const;
 };
 
 /// 6-DoF motion-only BA: Huber 2.448 on level-whitened residuals, chi2 5.991 re-classification rounds.
@@ -41,6 +48,9 @@ class FullPoseSolver : public PoseSolver {
   explicit FullPoseSolver(optimize::PoseOptimizationParams params = {}) : params_(params) {}
   std::string name() const override { return "full6dof"; }
   optimize::PoseOptimizationResult solve(const PoseSolveRequest& request) const override;
+  optimize::PoseOptimizationResult solveCoarseToFine(
+      const PoseSolveRequest& request, const std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>>& direct,
+      int coarsestLevel) const override;
   const optimize::PoseOptimizationParams& params() const { return params_; }
 
  private:

@@ -17,6 +17,7 @@
 #include "pslam/geometry/Pnp.h"
 #include "pslam/map/Map.h"
 #include "pslam/map/PointUsePolicy.h"
+#include "pslam/tracking/DirectPointSource.h"
 #include "pslam/tracking/Frame.h"
 #include "pslam/tracking/KeyFrameDecision.h"
 #include "pslam/tracking/MapInitializer.h"
@@ -83,6 +84,7 @@ struct FrameReport {
   int activeMatches = 0;       ///< final matches of points the policy lets tracking use (all of them: heuristic)
   int inactiveMatches = 0;     ///< final matches of points it does not (kept as measurements only, §3.4.2)
   int modelUpdates = 0;        ///< depth measurements applied to the points' models in this frame (§3.4.2)
+  DirectFrameCounts direct;    ///< direct points (all 0 without a DirectPointSource)
   bool keyFrame = false;
   std::size_t mapPoints = 0, keyFrames = 0;
   std::string message;
@@ -110,6 +112,9 @@ class Tracker {
     std::optional<std::pair<double, Eigen::Isometry3d>> initialReferencePose;
     /// Reference keyframe after this frame (ORB-SLAM stores frame poses relative to it), kNoKeyFrame if none.
     map::KeyFrameId referenceKeyFrame = map::kNoKeyFrame;
+    /// Grey and SEMANTIC images of the initializer's reference frame (the first keyframe) after a successful
+    /// initialization, for the front ends that keep keyframe images (direct points); empty otherwise.
+    cv::Mat initialReferenceGrey, initialReferenceSemantic;
   };
   /// Tracks one frame (stage timings go to `timings`: matching, pose_optimization, local_map, relocalization).
   Result track(Frame frame, StageTimings& timings);
@@ -121,6 +126,8 @@ class Tracker {
   /// false = localization only: no initialization, no keyframes, no change to the map (not even the points'
   /// visible/found counters), no reset when lost (the map is kept and relocalization retried).
   void setMapUpdatesEnabled(bool enabled) { mapUpdates_ = enabled; }
+  /// Direct points join pose optimization through `source` (§3.4.2); null (default) = keypoints only.
+  void setDirectPointSource(std::shared_ptr<DirectPointSource> source) { direct_ = std::move(source); }
   bool mapUpdatesEnabled() const { return mapUpdates_; }
   /// The map was replaced by a loaded one: tracking is initialized and lost, the next frame relocalizes.
   void onMapLoaded();
@@ -139,8 +146,12 @@ class Tracker {
   static constexpr double kEvidenceChi2 = 5.991;
 
   // Building blocks (public for tests)
-  /// Pose optimization of `frame` against its matches; outliers are unmatched afterwards. Returns inliers.
+  /// Pose optimization of `frame` against its matches (and, in the tracking attempts, the direct points of the
+  /// DirectPointSource, coarse to fine); outliers are unmatched afterwards. Returns the keypoint inliers.
   int optimizeFramePose(Frame& frame);
+  /// Did the last optimizeFramePose succeed: `keypointInliers` >= `minKeypointInliers`, or enough direct
+  /// inliers (DirectPointSource::minInliers) when direct points took part.
+  bool poseSupported(int keypointInliers, int minKeypointInliers) const;
   bool trackWithMotionModel(Frame& frame);
   bool trackReferenceKeyFrame(Frame& frame);
   /// Returns inliers after local-map tracking.
@@ -180,6 +191,12 @@ class Tracker {
   std::vector<map::KeyFrameId> localKeyFrames_;
   StageTimings* timings_ = nullptr;  ///< of the current track() call
   std::map<map::MapPointId, std::size_t> measured_;  ///< of the current track() call (recordMeasurements)
+  std::shared_ptr<DirectPointSource> direct_;
+  bool useDirect_ = false;              ///< direct points take part in the current attempt (not relocalization)
+  bool finalOptimization_ = false;      ///< the local-map pose optimization is running
+  int directFactors_ = 0;               ///< of the last optimizeFramePose
+  int directInliers_ = 0;
+  std::vector<bool> directOutliers_;
 };
 
 }  // namespace pslam::tracking
