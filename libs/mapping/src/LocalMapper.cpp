@@ -353,8 +353,14 @@ std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFram
 
 std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
   std::vector<MapPointId> created;
-  const std::vector<KeyFrameId> neighbours =
+  std::vector<KeyFrameId> neighbours =
       map_.bestCovisibleKeyFrames(kfId, static_cast<std::size_t>(params_.covisibleKeyFrames));
+  if (static_cast<int>(neighbours.size()) < params_.minTriangulationNeighbours) {
+    const std::set<KeyFrameId> have(neighbours.begin(), neighbours.end());
+    for (auto it = map_.keyFrames().rbegin();
+         it != map_.keyFrames().rend() && static_cast<int>(neighbours.size()) < params_.minTriangulationNeighbours; ++it)
+      if (it->first != kfId && !have.count(it->first)) neighbours.push_back(it->first);
+  }
   for (KeyFrameId nId : neighbours) {
     const KeyFrame& kf1 = map_.keyFrame(kfId);
     const KeyFrame& kf2 = map_.keyFrame(nId);
@@ -540,8 +546,15 @@ optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId
   bool anyFree = false;
   for (const auto& [id, k] : problem.keyframes) anyFree = anyFree || !k.fixed;
   if (problem.observations.empty() || !anyFree) return {};
+  if (baFactors_) problem.factors = baFactors_(map_, problem);
   const optimize::BAResult result = optimize::localBundleAdjustment(problem, params_.ba);
   if (resultOut) *resultOut = result;
+  if (baFactorsApplied_) {
+    std::vector<bool> outliers(problem.factors.size(), false);
+    for (std::size_t i : result.factorOutliers)
+      if (i < outliers.size()) outliers[i] = true;
+    baFactorsApplied_(outliers);
+  }
   const optimize::MapUpdateSummary summary = optimize::applyResult(map_, problem, result, true);
   // §3.4.3: "after the bundle adjustment we update our probabilistic model with the refined depth
   // estimates": the filter mean takes the refined inverse depth; its variance and inlier counts are kept.

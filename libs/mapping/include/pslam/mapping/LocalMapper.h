@@ -11,6 +11,7 @@
 // With the probabilistic map-point model every new observation also updates the point's keypoint model
 // (§3.3, inverse depth + matching accuracy) stored in MapPoint::landmarkState. See doc/mapping.md.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,6 +32,10 @@ namespace pslam::mapping {
 struct LocalMappingParams {
   // ---- CreateNewMapPoints ----
   int covisibleKeyFrames = 20;
+  /// A keyframe with fewer covisible keyframes than this triangulates with the most recent keyframes as well
+  /// (0 = ORB-SLAM: covisible only). Used with direct points: a keyframe tracked by them alone shares no
+  /// keypoints with the map, and without it no keypoint would ever be triangulated again.
+  int minTriangulationNeighbours = 0;
   int maxDescriptorDistance = 50;
   /// Best/second-best distance ratio of SearchForTriangulation; 1 (default) = no ratio test, as ORB-SLAM2's
   /// SearchForTriangulation (the 0.6 it constructs its matcher with is not applied there). Measured on KITTI 00:
@@ -70,6 +75,8 @@ struct LocalMappingParams {
   void visitFields(V& v) {
     using namespace pslam::params;
     PSLAM_FIELD(v, covisibleKeyFrames, atLeast(1), "neighbours to triangulate with (monocular 20)");
+    PSLAM_FIELD(v, minTriangulationNeighbours, atLeast(0),
+                "fewer covisible keyframes than this: the most recent ones fill up (0 = covisible only)");
     PSLAM_FIELD(v, maxDescriptorDistance, inClosed(0, 256), "TH_LOW of SearchForTriangulation");
     PSLAM_FIELD(v, nnRatio, inLeftOpen(0, 1), "best/second-best ratio of SearchForTriangulation; 1 = none");
     PSLAM_FIELD(v, checkOrientation, anyValue, "rotation-histogram consistency (30 bins)");
@@ -150,6 +157,17 @@ class LocalMapper {
   /// Forgets the recent-point list (after the tracker cleared the map).
   void reset();
 
+  /// Other landmark kinds in local BA (§3.4.3: direct points): `factors` adds factors to the window's problem
+  /// (BAProblem::factors; their keyframes must be window keyframes), `applied` gets their outlier flags after the
+  /// optimization, in the same order. Empty functions: keypoints only.
+  using BAFactorMaker = std::function<std::vector<std::shared_ptr<optimize::BAFactor>>(const map::Map&,
+                                                                                      const optimize::BAProblem&)>;
+  using BAFactorsApplied = std::function<void(const std::vector<bool>&)>;
+  void setBAFactorHooks(BAFactorMaker factors, BAFactorsApplied applied) {
+    baFactors_ = std::move(factors);
+    baFactorsApplied_ = std::move(applied);
+  }
+
   /// Is the point used for tracking / BA (pointUsePolicy()->mayUse)?
   bool isActive(map::MapPointId point) const;
   /// The policy culling and the BA window ask (the tracker should be given the same one).
@@ -179,6 +197,8 @@ class LocalMapper {
   LocalMappingParams params_;
   std::vector<map::MapPointId> recent_;
   int landmarkUpdates_ = 0;
+  BAFactorMaker baFactors_;
+  BAFactorsApplied baFactorsApplied_;
   std::unique_ptr<Impl> impl_;
 };
 
