@@ -232,6 +232,43 @@ TEST(SlamE2E, ProbabilisticModelLearnsFromEveryTrackedFrameDeterministically) {
   EXPECT_GT(dr.ratio, 0.8) << "map-point depths of a static room should be within 10 % of the truth";
 }
 
+TEST(SlamE2E, DirectFeaturesJoinTrackingAndRepeatBitForBit) {
+  // §3.4: direct points made on keyframes join every frame's pose optimization and local BA; the run stays
+  // deterministic and tracks the static room as well as the keypoints alone.
+  const std::vector<std::string> sets{"PointModel.model=probabilistic", "PointModel.semantic=false",
+                                      "DirectFeatures.enabled=true"};
+  const fs::path a = tempRoot() / "direct_a", b = tempRoot() / "direct_b", orb = tempRoot() / "direct_orb";
+  const auto s = runSlam(a, 5, false, roomRawlog(), kConfig, sets);
+  runSlam(b, 5, false, roomRawlog(), kConfig, sets);
+  runSlam(orb, 5, false, roomRawlog(), kConfig, {"PointModel.model=probabilistic", "PointModel.semantic=false"});
+  ASSERT_TRUE(s.initialized());
+  EXPECT_GE(s.framesTracked, static_cast<std::size_t>(kFrames / 2));
+  EXPECT_EQ(readText(a / "trajectory.txt"), readText(b / "trajectory.txt"));
+  EXPECT_EQ(readText(a / "map.slammap"), readText(b / "map.slammap"));
+  EXPECT_NE(readText(a / "trajectory.txt"), readText(orb / "trajectory.txt")) << "direct points changed nothing";
+  const auto report = nlohmann::json::parse(readText(a / "report.json"));
+  int tracked = 0, withDirect = 0;
+  long factors = 0, inliers = 0;
+  for (const auto& f : report["frames"]) {
+    if (f["status"] != "tracking" || f["method"] == "initializer") continue;
+    ++tracked;
+    withDirect += f["direct_factors"].get<double>() > 0 ? 1 : 0;
+    factors += f["direct_factors"].get<long>();
+    inliers += f["direct_inliers"].get<long>();
+  }
+  ASSERT_GT(tracked, 10);
+  EXPECT_GE(withDirect, tracked * 9 / 10) << "direct points should join nearly every frame's pose";
+  EXPECT_GT(inliers, factors * 8 / 10);
+  long created = 0;
+  for (const auto& m : report["mapping"]) created += m["direct_created"].get<long>();
+  EXPECT_GT(created, 500);
+  const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
+  const double ateDirect = ateSim3(gt, readTumTrajectory(a / "trajectory.txt"));
+  const double ateOrb = ateSim3(gt, readTumTrajectory(orb / "trajectory.txt"));
+  EXPECT_LT(ateDirect, 0.05);
+  EXPECT_LT(ateDirect, 2.0 * ateOrb + 0.005) << "direct points made the static room much worse";
+}
+
 TEST(SlamE2E, ThreadedModeTracks) {
   const fs::path out = tempRoot() / "threaded";
   const auto s = runSlam(out, 1, true);

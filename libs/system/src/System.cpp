@@ -66,6 +66,10 @@ struct System::Impl {
         threaded(threadedMode) {
     params.mapping.ba = params.bundleAdjustment;
     params.mapping.pointModel = params.pointModel;
+    // A keyframe tracked by direct points alone shares no keypoint with the map: it triangulates with the two
+    // most recent keyframes (LocalMappingParams::minTriangulationNeighbours) unless the config says otherwise.
+    if (params.directFeatures.enabled && params.mapping.minTriangulationNeighbours == 0)
+      params.mapping.minTriangulationNeighbours = 2;
     mapper = std::make_unique<mapping::LocalMapper>(map, params.mapping);
     tracker = std::make_unique<tracking::Tracker>(
         map, camera, params.tracking,
@@ -73,6 +77,18 @@ struct System::Impl {
         tracking::makePoseSolver(params.system.poseSolver, params.poseOptimization), seed);
     // The one point-use decision (§3.4.2-3.4.3): tracking asks the policy local mapping culls and optimizes with.
     tracker->setPointUsePolicy(mapper->pointUsePolicy());
+    if (params.directFeatures.enabled) {
+      // Direct points (§3.2.2, §3.4): the tracker's pose optimization and local BA use them; their models follow
+      // the same [PointModel] as the keypoints.
+      directFrontEnd = std::make_shared<direct::DirectFrontEnd>(params.directFeatures, params.pointModel, camera,
+                                                                params.mapping.depthPixelNoise);
+      tracker->setDirectPointSource(directFrontEnd);
+      mapper->setBAFactorHooks(
+          [this](const map::Map& m, const optimize::BAProblem& problem) {
+            return directFrontEnd->bundleAdjustmentFactors(m, problem);
+          },
+          [this](const std::vector<bool>& outliers) { directFrontEnd->afterBundleAdjustment(outliers); });
+    }
     if (threaded) worker = std::thread([this] { mappingLoop(); });
   }
 
@@ -92,7 +108,17 @@ struct System::Impl {
     for (map::KeyFrameId kf : kfs) {
       if (!map.hasKeyFrame(kf)) continue;  // erased meanwhile
       const mapping::LocalMappingReport r = mapper->processKeyFrame(kf, {}, measuredByTracking);
+      direct::DirectCreationReport d;
+      if (directFrontEnd && map.hasKeyFrame(kf)) {
+        // New direct points at the keyframe's refined pose (§3.4.3), matched into its best covisible keyframe.
+        d = directFrontEnd->createPoints(map, kf);
+        directFrontEnd->prune(map);
+        mappingTimings.add("direct_creation", d.ms);
+      }
       mappingLog.push_back({{"generation", generation},
+                            {"direct_selected", d.selected},
+                            {"direct_tracked", d.tracked},
+                            {"direct_created", d.created},
                             {"keyframe", kf},
                             {"new_points", r.newPoints},
                             {"culled_points", r.culledPoints},
@@ -158,6 +184,7 @@ struct System::Impl {
   features::OrbExtractor initExtractor;  ///< featureFactor x nFeatures, used until the map is initialized
   std::unique_ptr<mapping::LocalMapper> mapper;
   std::unique_ptr<tracking::Tracker> tracker;
+  std::shared_ptr<direct::DirectFrontEnd> directFrontEnd;  ///< null unless [DirectFeatures] enabled
   StageTimings trackingTimings, mappingTimings;
   nlohmann::json mappingLog = nlohmann::json::array();
   nlohmann::json frames = nlohmann::json::array();
@@ -260,10 +287,25 @@ TrackResult System::track(const datasets::Frame& input) {
     }
     std::unique_lock<std::mutex> mk(s.mapMutex, std::defer_lock);
     if (s.threaded) mk.lock();
+    const cv::Mat grey = frame.grey, semantic = frame.semantic;
     res = s.tracker->track(std::move(frame), s.trackingTimings);
     if (res.mapWasReset) {
       s.mapper->reset();
       s.newGeneration();
+      if (s.directFrontEnd) s.directFrontEnd->reset();
+    }
+    if (s.directFrontEnd && s.mappingEnabled && !res.newKeyFrames.empty()) {
+      // Keyframe images for the direct points; the two keyframes of a new map are the initializer's reference
+      // frame and this one (affine brightness (0, 0): the first map sets the reference exposure).
+      if (res.initialReferencePose) {
+        s.directFrontEnd->reset();
+        s.directFrontEnd->addKeyFrame(res.newKeyFrames.front(), res.initialReferenceGrey, res.initialReferenceSemantic,
+                                      false);
+        for (std::size_t k = 1; k < res.newKeyFrames.size(); ++k)
+          s.directFrontEnd->addKeyFrame(res.newKeyFrames[k], grey, semantic, false);
+      } else {
+        for (map::KeyFrameId kf : res.newKeyFrames) s.directFrontEnd->addKeyFrame(kf, grey, semantic, true);
+      }
     }
     // Threaded: the pose relative to the reference keyframe is read under the same lock as tracking, since the
     // mapping thread may move the keyframe right after.
@@ -372,6 +414,7 @@ void System::loadMap(const std::filesystem::path& path) {
               ", " + std::to_string(own.width) + "x" + std::to_string(own.height) + ")");
   impl_->map = std::move(loaded);
   impl_->mapper->reset();
+  if (impl_->directFrontEnd) impl_->directFrontEnd->reset();
   impl_->tracker->onMapLoaded();
   impl_->newGeneration();
 }
@@ -391,6 +434,7 @@ void System::reset() {
   std::lock_guard<std::mutex> mk(impl_->mapMutex);
   impl_->tracker->reset();
   impl_->mapper->reset();
+  if (impl_->directFrontEnd) impl_->directFrontEnd->reset();
   impl_->newGeneration();
   impl_->counters.initializedAtFrame = -1;
 }
@@ -414,11 +458,13 @@ nlohmann::json System::mappingLog() const {
 nlohmann::json System::summary() const {
   Counters c;
   std::size_t keyFrames = 0, mapPoints = 0;
+  nlohmann::json direct = {{"direct_points", 0}, {"direct_active", 0}, {"direct_hosts", 0}};
   if (impl_) {
     std::lock_guard<std::mutex> mk(impl_->mapMutex);
     c = impl_->counters;
     keyFrames = impl_->map.numKeyFrames();
     mapPoints = impl_->map.numMapPoints();
+    if (impl_->directFrontEnd) direct = impl_->directFrontEnd->summary();
   }
   return {{"frames_processed", c.frames},
           {"frames_tracked", c.tracked},
@@ -428,7 +474,9 @@ nlohmann::json System::summary() const {
           {"initialized_at_frame", c.initializedAtFrame},
           {"keyframes", keyFrames},
           {"map_points", mapPoints},
-          {"resets", c.resets}};
+          {"resets", c.resets},
+          {"direct_points", direct["direct_points"]},
+          {"direct_active", direct["direct_active"]}};
 }
 
 nlohmann::json System::report() const {

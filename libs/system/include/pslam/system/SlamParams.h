@@ -4,6 +4,7 @@
 //   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
 //   [LocalMapping] mapping::LocalMappingParams   [PointModel] landmarks::PointModelParams   [System] SystemParams
+//   [DirectFeatures] direct::DirectFeaturesParams
 // An unknown section or key is an error naming the closest valid one.
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include <mrpt/config/CConfigFileBase.h>
 
 #include "pslam/core/Params.h"
+#include "pslam/direct/DirectFrontEnd.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/landmarks/PointModel.h"
 #include "pslam/mapping/LocalMapper.h"
@@ -47,6 +49,7 @@ struct SlamParams {
   mapping::LocalMappingParams mapping;
   landmarks::PointModelParams pointModel;  ///< default heuristic (ORB-SLAM*)
   SystemParams system;
+  direct::DirectFeaturesParams directFeatures;  ///< off by default (ORB-SLAM*)
 
   template <class V>
   void visitSections(V& v) {
@@ -58,6 +61,7 @@ struct SlamParams {
     v.section("LocalMapping", mapping);
     v.section("PointModel", pointModel);
     v.section("System", system);
+    v.section("DirectFeatures", directFeatures);
   }
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);
