@@ -28,6 +28,11 @@ int main(int argc, char** argv) {
     cli.add_option("--seed", o.seed, "seed of textures, placements, traffic, jitter, noise")
         ->check(key("seed"))
         ->capture_default_str();
+    cli.add_option("--path-variant", o.pathVariant,
+                   "another camera path through the same scene (same seed = same world): 0 = the preset's path; "
+                   "room and corridor: 1 = offset path, 2 = reversed direction")
+        ->check(key("path_variant"))
+        ->capture_default_str();
     cli.add_option("--texture", texture, "on: procedural textures; off: white surfaces, shading only")
         ->check(CLI::IsMember({"on", "off"}))
         ->capture_default_str();

@@ -44,6 +44,11 @@ void SynthOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const st
 void SynthOptions::check() const {
   params::check(*this, kSection);
   if (outDir.empty()) throw params::ParamError(kSection, "out_dir", "", "output folder is required");
+  try {
+    requirePathVariant(scenario, pathVariant);
+  } catch (const Error& e) {
+    throw params::ParamError(kSection, "path_variant", std::to_string(pathVariant), e.what());
+  }
 }
 
 AntiAliasing SynthOptions::antiAliasingMode() const {
@@ -66,7 +71,7 @@ PinholeCamera SynthOptions::camera() const {
 
 nlohmann::json SynthOptions::toJson() const {
   return {{"scenario", scenario}, {"frames", frames}, {"width", width}, {"height", height}, {"fx", fx},
-          {"fy", fy}, {"cx", cx}, {"cy", cy}, {"seed", seed}, {"texture", textured}, {"noise_sigma", noiseSigma},
+          {"fy", fy}, {"cx", cx}, {"cy", cy}, {"seed", seed}, {"path_variant", pathVariant}, {"texture", textured}, {"noise_sigma", noiseSigma},
           {"exposure", exposure}, {"supersampling", supersampling}, {"anti_aliasing", antiAliasing}, {"aa_contrast", aaContrast},
           {"out_dir", outDir.string()}, {"name", effectiveName()}, {"preview_frame", previewFrame},
           {"threads", threads}};
@@ -191,7 +196,7 @@ SynthSummary SynthApp::run() {
   if (!o.preview.empty() && previewFrame >= frames)
     throw Error("[synth] preview_frame: frame " + std::to_string(previewFrame) + " is beyond the " +
                 std::to_string(frames) + " frames generated");
-  const Scenario scenario = makeScenario(o.scenario, o.seed, duration);
+  const Scenario scenario = makeScenario(o.scenario, o.seed, duration, o.pathVariant);
   const PinholeCamera cam = o.camera();
   RenderOptions ro;
   ro.textured = o.textured;
@@ -310,6 +315,7 @@ SynthSummary SynthApp::run() {
   writer.commit();
   writeTumTrajectory(groundTruthOut.tempPath(), gt,
                      "ground truth of slam-synth scenario '" + o.scenario + "' seed " + std::to_string(o.seed) +
+                         (o.pathVariant != 0 ? " path variant " + std::to_string(o.pathVariant) : std::string()) +
                          " (camera-to-world, T_world_cam)");
   sum.frames = static_cast<std::size_t>(frames);
   sum.meanDynamicFraction /= frames;

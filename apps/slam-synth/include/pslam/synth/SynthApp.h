@@ -31,6 +31,7 @@ struct SynthOptions {
   double fx = 0, fy = 0;   ///< 0 = scenario default focal length scaled to the width
   double cx = -1, cy = -1; ///< negative = image centre ((w-1)/2, (h-1)/2)
   std::uint32_t seed = 1;
+  int pathVariant = 0;     ///< another camera path through the same scene (Scenarios.h); 0 = the preset's
   bool textured = true;
   double noiseSigma = 0.0; ///< std of additive Gaussian image noise in grey levels
   bool exposure = false;   ///< per-frame affine brightness change a*I+b (smooth in time, from the seed)
@@ -58,6 +59,8 @@ struct SynthOptions {
     PSLAM_FIELD(v, cx, finite(), "principal point x (negative = (width-1)/2)");
     PSLAM_FIELD(v, cy, finite(), "principal point y (negative = (height-1)/2)");
     PSLAM_FIELD(v, seed, anyValue, "seed of textures, placements, traffic, jitter, noise");
+    PSLAM_KEY(v, "path_variant", pathVariant, inClosed(0, 1000),
+              "camera path through the same scene (0 = the preset's; which others exist depends on the scenario)");
     PSLAM_KEY(v, "texture", textured, anyValue, "procedural textures (false: white surfaces, shading only)");
     PSLAM_KEY(v, "noise_sigma", noiseSigma, inClosed(0, 100), "Gaussian image noise std in grey levels");
     PSLAM_FIELD(v, exposure, anyValue, "per-frame affine brightness change");
