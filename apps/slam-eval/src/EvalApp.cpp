@@ -86,14 +86,14 @@ EvalResult EvalApp::run(const std::filesystem::path& gtPath, const std::filesyst
     result = EvalApp(effective).evaluate(gt, est);
   } else {
     // The alignment of the other pair (same formats and options; its files have no times files of their own).
-    bool aGtIndexOnly = false, aEstIndexOnly = false;
-    const Trajectory alignGt = readOne(options_.alignFromGt, options_.gtFormat, {}, aGtIndexOnly);
-    const Trajectory alignEst = readOne(options_.alignFromEst, options_.estFormat, {}, aEstIndexOnly);
-    EvalOptions alignOptions = effective;
-    if (aGtIndexOnly || aEstIndexOnly) alignOptions.association.rule = AssociationRule::ByIndex;
     std::size_t pairs = 0;
     Alignment given;
     try {
+      bool aGtIndexOnly = false, aEstIndexOnly = false;
+      const Trajectory alignGt = readOne(options_.alignFromGt, options_.gtFormat, {}, aGtIndexOnly);
+      const Trajectory alignEst = readOne(options_.alignFromEst, options_.estFormat, {}, aEstIndexOnly);
+      EvalOptions alignOptions = effective;
+      if (aGtIndexOnly || aEstIndexOnly) alignOptions.association.rule = AssociationRule::ByIndex;
       given = EvalApp(alignOptions).computeAlignment(alignGt, alignEst, &pairs);
     } catch (const Error& e) {
       throw Error("--align-from " + options_.alignFromGt.string() + " " + options_.alignFromEst.string() + ": " +
