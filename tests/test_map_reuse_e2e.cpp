@@ -245,7 +245,7 @@ TEST(MapReuse, BadMapsAreNamedAndNothingIsWritten) {
   // The map may not be one of the outputs.
   o = runOptions(pathB(), runA());
   o.mapIn = mapA;
-  EXPECT_NE(errorOf([&] { apps::SlamRunApp(o).run(); }).find("input"), std::string::npos);
+  EXPECT_NE(errorOf([&] { apps::SlamRunApp(o).run(); }).find("is the input"), std::string::npos);
   EXPECT_EQ(readBytes(mapA), bytes);
 }
 

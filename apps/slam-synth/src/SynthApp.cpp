@@ -1,5 +1,6 @@
 #include "pslam/synth/SynthApp.h"
 
+#include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <cmath>
@@ -32,6 +33,17 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 // ------------------------------------------------------------------------------------------------ options
+std::optional<std::string> pathVariantProblem(const std::string& scenario, int pathVariant) {
+  const auto& names = scenarioNames();
+  if (std::find(names.begin(), names.end(), scenario) == names.end()) return std::nullopt;
+  try {
+    requirePathVariant(scenario, pathVariant);
+  } catch (const Error& e) {
+    return std::string(e.what());
+  }
+  return std::nullopt;
+}
+
 void SynthOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
   // The rules only: out_dir may still come from the command line.
   params::load(*this, cfg, section);
@@ -44,11 +56,6 @@ void SynthOptions::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const st
 void SynthOptions::check() const {
   params::check(*this, kSection);
   if (outDir.empty()) throw params::ParamError(kSection, "out_dir", "", "output folder is required");
-  try {
-    requirePathVariant(scenario, pathVariant);
-  } catch (const Error& e) {
-    throw params::ParamError(kSection, "path_variant", std::to_string(pathVariant), e.what());
-  }
 }
 
 AntiAliasing SynthOptions::antiAliasingMode() const {

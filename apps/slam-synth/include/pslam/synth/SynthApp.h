@@ -10,6 +10,7 @@
 //   <name>_synth.json                  effective options, intrinsics, depth unit, summary
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,10 @@
 #include "pslam/synth/Scenarios.h"
 
 namespace pslam::synth {
+
+/// Why `pathVariant` is not a path variant of `scenario` (nullopt: it is, or the scenario is unknown, which the
+/// scenario key reports).
+std::optional<std::string> pathVariantProblem(const std::string& scenario, int pathVariant);
 
 struct SynthOptions {
   std::string scenario = "room";
@@ -59,7 +64,9 @@ struct SynthOptions {
     PSLAM_FIELD(v, cx, finite(), "principal point x (negative = (width-1)/2)");
     PSLAM_FIELD(v, cy, finite(), "principal point y (negative = (height-1)/2)");
     PSLAM_FIELD(v, seed, anyValue, "seed of textures, placements, traffic, jitter, noise");
-    PSLAM_KEY(v, "path_variant", pathVariant, inClosed(0, 1000),
+    PSLAM_KEY(v, "path_variant", pathVariant,
+              custom([this](int n) -> std::optional<std::string> { return pathVariantProblem(scenario, n); },
+                     "a path variant of the scenario (room, corridor: 0, 1, 2; the others: 0)"),
               "camera path through the same scene (0 = the preset's; which others exist depends on the scenario)");
     PSLAM_KEY(v, "texture", textured, anyValue, "procedural textures (false: white surfaces, shading only)");
     PSLAM_KEY(v, "noise_sigma", noiseSigma, inClosed(0, 100), "Gaussian image noise std in grey levels");
