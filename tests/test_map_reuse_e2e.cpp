@@ -241,7 +241,7 @@ TEST(MapReuse, BadMapsAreNamedAndNothingIsWritten) {
   // --localization needs a map.
   apps::SlamRunOptions o = runOptions(pathB(), tempRoot() / "no_map");
   o.localization = true;
-  EXPECT_NE(errorOf([&] { apps::SlamRunApp(o).run(); }).find("--localization needs --map-in"), std::string::npos);
+  EXPECT_NE(errorOf([&] { apps::SlamRunApp(o).run(); }).find("--localization: needs --map-in"), std::string::npos);
   // The map may not be one of the outputs.
   o = runOptions(pathB(), runA());
   o.mapIn = mapA;

@@ -110,8 +110,8 @@ SlamRunSummary SlamRunApp::run() {
   require(!options_.outDir.empty(), "slam-run", "no output folder given");
   require(options_.last < 0 || options_.last >= static_cast<long long>(options_.first), "slam-run",
           "--last " + std::to_string(options_.last) + " is before --first " + std::to_string(options_.first));
-  require(!options_.localization || !options_.mapIn.empty(), "slam-run",
-          "--localization needs --map-in (the map to localize in)");
+  require(!options_.localization || !options_.mapIn.empty(), "--localization",
+          "needs --map-in (the map to localize in)");
   const system::SlamParams params = system::loadSlamParams(options_.config.string(), options_.overrides);
   require(std::filesystem::is_regular_file(options_.rawlog), options_.rawlog.string(), "rawlog not found");
 
