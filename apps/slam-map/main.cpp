@@ -11,21 +11,21 @@ int main(int argc, char** argv) {
   cli.require_subcommand(1);
   std::string infoMap;
   bool json = false;
-  CLI::App* info = cli.add_subcommand("info", "keyframes, points, camera, format version, file size, point-model statistics");
-  info->add_option("map", infoMap, "map file (map.slammap of slam-run)")->required();
-  info->add_flag("--json", json, "print JSON instead of text");
+  CLI::App* infoCmd = cli.add_subcommand("info", "keyframes, points, camera, format version, file size, point-model statistics");
+  infoCmd->add_option("map", infoMap, "map file (map.slammap of slam-run)")->required();
+  infoCmd->add_flag("--json", json, "print JSON instead of text");
   pslam::apps::MapExportOptions ex;
   std::string exportMap, ply, png;
-  CLI::App* exp = cli.add_subcommand("export", "PLY of the points and keyframe centres, PNG top view");
-  exp->add_option("map", exportMap, "map file")->required();
-  exp->add_option("--ply", ply, "ASCII PLY: good map points (coloured by inlier ratio when the map has the point model) "
+  CLI::App* exportCmd = cli.add_subcommand("export", "PLY of the points and keyframe centres, PNG top view");
+  exportCmd->add_option("map", exportMap, "map file")->required();
+  exportCmd->add_option("--ply", ply, "ASCII PLY: good map points (coloured by inlier ratio when the map has the point model) "
                                 "and keyframe centres (red)");
-  exp->add_option("--png", png, "top view from above: points and the keyframe trajectory");
-  exp->add_option("--width", ex.pngWidth, "PNG width in pixels")->capture_default_str();
-  exp->add_option("--height", ex.pngHeight, "PNG height in pixels")->capture_default_str();
+  exportCmd->add_option("--png", png, "top view from above: points and the keyframe trajectory");
+  exportCmd->add_option("--width", ex.pngWidth, "PNG width in pixels")->capture_default_str();
+  exportCmd->add_option("--height", ex.pngHeight, "PNG height in pixels")->capture_default_str();
   CLI11_PARSE(cli, argc, argv);
   try {
-    if (*info) {
+    if (*infoCmd) {
       const pslam::apps::MapInfo i = pslam::apps::mapInfo(infoMap);
       if (json)
         std::cout << i.toJson().dump(2) << "\n";

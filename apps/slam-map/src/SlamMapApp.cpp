@@ -36,7 +36,7 @@ void forGoodPoints(const map::Map& map, F&& f) {
     if (!p.bad) f(id, p);
 }
 
-/// Keyframes in timestamp order (ids follow insertion, but a loaded-and-extended map keeps that too).
+/// Keyframes in timestamp order: the order of the keyframe trajectory.
 std::vector<const map::KeyFrame*> keyFramesByTime(const map::Map& map) {
   std::vector<const map::KeyFrame*> kfs;
   for (const auto& [id, kf] : map.keyFrames()) kfs.push_back(&kf);

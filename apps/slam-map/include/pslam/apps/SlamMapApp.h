@@ -10,7 +10,6 @@
 // Outputs are prepared before the work and written under temporary names, then renamed (pslam::OutputSet).
 #include <cstdint>
 #include <filesystem>
-#include <optional>
 #include <string>
 #include <vector>
 
