@@ -42,6 +42,11 @@ int main(int argc, char** argv) {
   auto* oAlign = cli.add_option("--align", align, "none|se3|sim3; default sim3 = evo's -as, for monocular runs (evo: none; TUM evaluate_ate.py: se3)")->capture_default_str();
   auto* oFirst = cli.add_option("--align-first", alignFirst, "align on the first N pairs only (0 = all)")
                     ->check(cliCheck<std::size_t>());
+  std::vector<std::string> alignFrom;
+  cli.add_option("--align-from", alignFrom,
+                 "GT EST: apply the alignment fitted to this other pair (same --align, --align-first, association) "
+                 "instead of fitting one to the estimate, e.g. a localization run in the map of EST")
+      ->expected(2);
   auto* oDelta = cli.add_option("--delta", delta, "RPE delta (evo's default)")
                     ->check(cliCheck<double>(greaterThan(0)))
                     ->capture_default_str();
@@ -79,6 +84,10 @@ int main(int argc, char** argv) {
     if (oAll->count()) o.rpeOptions.allPairs = allPairs;
     if (oTol->count()) o.rpeOptions.relativeTolerance = relTol;
     if (oNoRpe->count()) o.rpe = !noRpe;
+    if (alignFrom.size() == 2) {
+      o.alignFromGt = alignFrom[0];
+      o.alignFromEst = alignFrom[1];
+    }
     o.depthSamples = depthSamples;
     o.depthRawlog = depthRawlog;
     if (oTau->count()) o.depthRatio.tau = tau;

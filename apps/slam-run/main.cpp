@@ -7,7 +7,8 @@
 #include "pslam/core/Params.h"
 
 int main(int argc, char** argv) {
-  CLI::App cli{"Monocular SLAM on a rawlog: trajectory.txt, keyframes.txt, map.slammap, depths.txt, report.json"};
+  CLI::App cli{"Monocular SLAM on a rawlog: trajectory.txt, keyframes.txt, map.slammap, depths.txt, report.json.\n"
+               "With --map-in it continues on a saved map (--localization: tracking in the fixed map only)."};
   pslam::apps::SlamRunOptions o;
   std::string config, rawlog, out;
   long long first = 0;
@@ -23,18 +24,26 @@ int main(int argc, char** argv) {
       ->check(cliCheck<long long>(pslam::params::atLeast(0)));
   cli.add_option("--last", o.last, "last frame index (inclusive; default: the end)")->check(cliCheck<long long>());
   cli.add_flag("--threaded", o.threaded, "local mapping in a second thread (not deterministic)");
+  std::string mapIn;
+  cli.add_option("--map-in", mapIn,
+                 "start from this saved map (map.slammap of an earlier run): relocalize in it, then extend it");
+  cli.add_flag("--localization", o.localization,
+               "with --map-in: the map stays fixed (no keyframes, no changes); frames are only localized in it");
   cli.add_flag("-q,--quiet", quiet, "no progress output");
   CLI11_PARSE(cli, argc, argv);
   try {
     o.config = config;
     o.rawlog = rawlog;
     o.outDir = out;
+    o.mapIn = mapIn;
     o.first = static_cast<std::size_t>(first);
     o.progress = !quiet;
     pslam::apps::SlamRunApp app(o);
     const auto s = app.run();
-    if (!s.initialized())
+    if (!s.hasMap())
       std::cerr << "slam-run: warning: initialization never succeeded; wrote an empty trajectory\n";
+    else if (s.mapLoaded && s.framesLocalized == 0)
+      std::cerr << "slam-run: warning: no frame was localized in the loaded map; wrote an empty trajectory\n";
     std::cout << s.toText() << "\n";
     return 0;
   } catch (const std::exception& e) {

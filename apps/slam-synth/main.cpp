@@ -28,6 +28,12 @@ int main(int argc, char** argv) {
     cli.add_option("--seed", o.seed, "seed of textures, placements, traffic, jitter, noise")
         ->check(key("seed"))
         ->capture_default_str();
+    cli.add_option("--path-variant", o.pathVariant,
+                   "another camera path through the same scene (same seed = same world): 0 = the preset's path; "
+                   "room and corridor: 1 = offset path, 2 = reversed direction")
+        // The variants depend on the scenario, which may come later on the line: checked with it (SynthOptions::check).
+        ->check(pslam::params::cliCheck<int>(pslam::params::atLeast(0)))
+        ->capture_default_str();
     cli.add_option("--texture", texture, "on: procedural textures; off: white surfaces, shading only")
         ->check(CLI::IsMember({"on", "off"}))
         ->capture_default_str();

@@ -25,6 +25,10 @@ void EvalOptions::check() const {
   params::check(*this, kSection);
   if (depthSamples.empty() != depthRawlog.empty())
     throw Error("DR needs both the map-point depth file and the rawlog with DEPTH");
+  if (alignFromGt.empty() != alignFromEst.empty())
+    throw Error("--align-from needs both a ground truth and an estimate");
+  if (!alignFromGt.empty() && alignment == AlignmentMode::None)
+    throw Error("--align-from needs an alignment (se3 or sim3), not none");
 }
 
 nlohmann::json EvalOptions::toJson() const {
@@ -48,34 +52,78 @@ nlohmann::json EvalOptions::toJson() const {
           {"dr_tau", depthRatio.tau},
           {"dr_scale", depthRatio.scale},
           {"dr_max_time_difference", depthRatio.maxTimeDifference},
-          {"dr_use_alignment_scale", depthUseAlignmentScale}};
+          {"dr_use_alignment_scale", depthUseAlignmentScale},
+          {"align_from_ground_truth", alignFromGt.string()},
+          {"align_from_estimate", alignFromEst.string()}};
 }
 
 EvalApp::EvalApp(EvalOptions options) : options_(std::move(options)) { options_.check(); }
 
+namespace {
+/// Reads one trajectory file in the format the options give (or detect); KITTI without times: by index.
+Trajectory readOne(const std::filesystem::path& path, TrajectoryFormat format, const std::filesystem::path& times,
+                   bool& indexOnly) {
+  const TrajectoryFormat f = format == TrajectoryFormat::Auto ? detectTrajectoryFormat(path) : format;
+  Trajectory t = readTrajectory(path, f, times);
+  if (t.empty()) throw Error(path.string() + ": no poses");
+  // KITTI poses without times files carry only their index: timestamps would be meaningless.
+  indexOnly = f == TrajectoryFormat::Kitti && times.empty();
+  return t;
+}
+}  // namespace
+
 EvalResult EvalApp::run(const std::filesystem::path& gtPath, const std::filesystem::path& estPath) const {
-  const TrajectoryFormat gtFormat =
-      options_.gtFormat == TrajectoryFormat::Auto ? detectTrajectoryFormat(gtPath) : options_.gtFormat;
-  const TrajectoryFormat estFormat =
-      options_.estFormat == TrajectoryFormat::Auto ? detectTrajectoryFormat(estPath) : options_.estFormat;
-  const Trajectory gt = readTrajectory(gtPath, gtFormat, options_.gtTimes);
-  const Trajectory est = readTrajectory(estPath, estFormat, options_.estTimes);
-  if (gt.empty()) throw Error(gtPath.string() + ": no poses");
-  if (est.empty()) throw Error(estPath.string() + ": no poses");
+  bool gtIndexOnly = false, estIndexOnly = false;
+  const Trajectory gt = readOne(gtPath, options_.gtFormat, options_.gtTimes, gtIndexOnly);
+  const Trajectory est = readOne(estPath, options_.estFormat, options_.estTimes, estIndexOnly);
   std::vector<std::string> warnings;
   for (const auto& note : {duplicateStampNote(gt, gtPath), duplicateStampNote(est, estPath)})
     if (!note.empty()) warnings.push_back(note);
   EvalOptions effective = options_;
-  // KITTI poses without times files carry only their index: timestamps would be meaningless.
-  const bool gtIndexOnly = gtFormat == TrajectoryFormat::Kitti && options_.gtTimes.empty();
-  const bool estIndexOnly = estFormat == TrajectoryFormat::Kitti && options_.estTimes.empty();
   if (gtIndexOnly || estIndexOnly) effective.association.rule = AssociationRule::ByIndex;
-  EvalResult result = EvalApp(effective).evaluate(gt, est);
+  EvalResult result;
+  if (options_.alignFromGt.empty()) {
+    result = EvalApp(effective).evaluate(gt, est);
+  } else {
+    // The alignment of the other pair (same formats and options; its files have no times files of their own).
+    std::size_t pairs = 0;
+    Alignment given;
+    try {
+      bool aGtIndexOnly = false, aEstIndexOnly = false;
+      const Trajectory alignGt = readOne(options_.alignFromGt, options_.gtFormat, {}, aGtIndexOnly);
+      const Trajectory alignEst = readOne(options_.alignFromEst, options_.estFormat, {}, aEstIndexOnly);
+      EvalOptions alignOptions = effective;
+      if (aGtIndexOnly || aEstIndexOnly) alignOptions.association.rule = AssociationRule::ByIndex;
+      given = EvalApp(alignOptions).computeAlignment(alignGt, alignEst, &pairs);
+    } catch (const Error& e) {
+      throw Error("--align-from " + options_.alignFromGt.string() + " " + options_.alignFromEst.string() + ": " +
+                  e.what());
+    }
+    result = EvalApp(effective).evaluate(gt, est, given, pairs);
+  }
   result.warnings = std::move(warnings);
   return result;
 }
 
+Alignment EvalApp::computeAlignment(const Trajectory& gt, const Trajectory& est, std::size_t* pairs) const {
+  const Association association = associate(gt, est, options_.association);
+  Trajectory gtAssociated, estAssociated;
+  selectAssociated(gt, est, association, gtAssociated, estAssociated);
+  if (pairs) *pairs = gtAssociated.size();
+  return alignTrajectories(gtAssociated, estAssociated, options_.alignment, options_.alignFirstN);
+}
+
 EvalResult EvalApp::evaluate(const Trajectory& gt, const Trajectory& est) const {
+  return evaluateImpl(gt, est, nullptr, 0);
+}
+
+EvalResult EvalApp::evaluate(const Trajectory& gt, const Trajectory& est, const Alignment& given,
+                             std::size_t givenPairs) const {
+  return evaluateImpl(gt, est, &given, givenPairs);
+}
+
+EvalResult EvalApp::evaluateImpl(const Trajectory& gt, const Trajectory& est, const Alignment* given,
+                                 std::size_t givenPairs) const {
   EvalResult r;
   r.gtPoses = gt.size();
   r.estPoses = est.size();
@@ -83,7 +131,14 @@ EvalResult EvalApp::evaluate(const Trajectory& gt, const Trajectory& est) const 
   const Association association = associate(gt, est, options_.association);
   Trajectory estAssociated;
   selectAssociated(gt, est, association, r.gtAssociated, estAssociated);
-  r.alignment = alignTrajectories(r.gtAssociated, estAssociated, options_.alignment, options_.alignFirstN);
+  if (given) {
+    if (r.gtAssociated.empty()) throw Error("no pose of the estimate is associated with the ground truth");
+    r.alignment = *given;
+    r.alignmentGiven = true;
+    r.alignmentPairs = givenPairs;
+  } else {
+    r.alignment = alignTrajectories(r.gtAssociated, estAssociated, options_.alignment, options_.alignFirstN);
+  }
   r.estAligned = applyAlignment(estAssociated, r.alignment);
   r.ate = computeAte(r.gtAssociated, r.estAligned);
   if (options_.rpe) r.rpe = computeRpe(r.gtAssociated, r.estAligned, options_.rpeOptions);
@@ -116,8 +171,11 @@ std::string EvalApp::formatTable(const EvalResult& r) const {
   char buf[128];
   std::snprintf(buf, sizeof(buf), "%.6f", r.alignment.scale);
   out << "alignment: " << toString(options_.alignment) << " on "
-      << (options_.alignFirstN == 0 ? std::string("all pairs") : "first " + std::to_string(options_.alignFirstN))
-      << ", scale " << buf << "\n";
+      << (options_.alignFirstN == 0 ? std::string("all pairs") : "first " + std::to_string(options_.alignFirstN));
+  if (r.alignmentGiven)
+    out << " of " << options_.alignFromEst.string() << " vs " << options_.alignFromGt.string() << " ("
+        << r.alignmentPairs << " pairs; not fitted to this estimate)";
+  out << ", scale " << buf << "\n";
   std::snprintf(buf, sizeof(buf), "%-16s %10s %10s %10s %10s %10s %10s %7s", "metric", "rmse", "mean", "median",
                 "std", "min", "max", "n");
   out << buf << "\n";
@@ -144,6 +202,10 @@ nlohmann::json EvalApp::toJson(const EvalResult& r) const {
   j["association_used"] = toString(r.ruleUsed);
   j["poses"] = {{"ground_truth", r.gtPoses}, {"estimate", r.estPoses}, {"pairs", r.gtAssociated.size()}};
   j["alignment"] = r.alignment.toJson();
+  if (r.alignmentGiven)
+    j["alignment_from"] = {{"ground_truth", options_.alignFromGt.string()},
+                           {"estimate", options_.alignFromEst.string()},
+                           {"pairs", r.alignmentPairs}};
   j["ate"] = r.ate.stats.toJson();
   if (r.rpe) {
     j["rpe"] = {{"translation", r.rpe->translation.toJson()},
@@ -171,8 +233,8 @@ std::vector<std::string> EvalApp::plotFileNames() const {
 }
 
 std::vector<std::filesystem::path> EvalApp::inputFiles() const {
-  std::vector<std::filesystem::path> files{options_.gtTimes, options_.estTimes, options_.depthSamples,
-                                           options_.depthRawlog};
+  std::vector<std::filesystem::path> files{options_.gtTimes,      options_.estTimes,    options_.depthSamples,
+                                           options_.depthRawlog, options_.alignFromGt, options_.alignFromEst};
   if (!options_.depthRawlog.empty())
     files.push_back(options_.depthRawlog.parent_path() / (options_.depthRawlog.stem().string() + "_Images"));
   return files;

@@ -195,3 +195,58 @@ TEST(EvalApp, BadInputsGiveClearErrors) {
   o.depthSamples = d.path / "depths.txt";
   EXPECT_THROW(EvalApp{o}, Error);
 }
+
+TEST(EvalApp, AlignFromAppliesAnotherPairsAlignment) {
+  TempDir d("align_from");
+  // Path A and path B of one world; both estimates in one run frame (monocularEstimate's Sim(3)), B with a 5 cm
+  // offset in that frame (= 15 cm in the world at scale 1/3).
+  const Trajectory gtA = makeSpiral(200);
+  Trajectory gtB = makeSpiral(120);
+  for (auto& p : gtB) p.position += Eigen::Vector3d(0.5, -0.2, 0.1);
+  const Trajectory estA = monocularEstimate(gtA);
+  Trajectory estB = monocularEstimate(gtB);
+  writeTumTrajectory(d.path / "gtA.txt", gtA);
+  writeTumTrajectory(d.path / "estA.txt", estA);
+  writeTumTrajectory(d.path / "gtB.txt", gtB);
+  writeTumTrajectory(d.path / "estB.txt", estB);
+  for (auto& p : estB) p.position += Eigen::Vector3d(0.05, 0, 0);
+  writeTumTrajectory(d.path / "estB_off.txt", estB);
+
+  EvalOptions o;
+  o.alignFromGt = d.path / "gtA.txt";
+  o.alignFromEst = d.path / "estA.txt";
+  const EvalApp app(o);
+  const EvalResult r = app.run(d.path / "gtB.txt", d.path / "estB.txt");
+  EXPECT_TRUE(r.alignmentGiven);
+  EXPECT_EQ(r.alignmentPairs, 100u);
+  EXPECT_NEAR(r.alignment.scale, 3.0, 1e-6);
+  EXPECT_LT(r.ate.stats.rmse, 1e-5);
+  // The offset is not aligned away (a fitted alignment would absorb it entirely).
+  const EvalResult off = app.run(d.path / "gtB.txt", d.path / "estB_off.txt");
+  EXPECT_NEAR(off.ate.stats.rmse, 0.15, 1e-4);
+  EXPECT_LT(EvalApp(EvalOptions{}).run(d.path / "gtB.txt", d.path / "estB_off.txt").ate.stats.rmse, 1e-5);
+  // Reported in the table and the JSON.
+  EXPECT_NE(app.formatTable(off).find("estA.txt vs " + (d.path / "gtA.txt").string() + " (100 pairs; not fitted"),
+            std::string::npos)
+      << app.formatTable(off);
+  const nlohmann::json j = app.toJson(off);
+  EXPECT_EQ(j["alignment_from"]["pairs"], 100);
+  EXPECT_EQ(j["options"]["align_from_estimate"], (d.path / "estA.txt").string());
+  // Errors: only one file, no alignment mode, a missing file named.
+  EvalOptions half;
+  half.alignFromGt = d.path / "gtA.txt";
+  EXPECT_THROW(EvalApp{half}, Error);
+  EvalOptions none = o;
+  none.alignment = AlignmentMode::None;
+  EXPECT_THROW(EvalApp{none}, Error);
+  EvalOptions missing = o;
+  missing.alignFromEst = d.path / "nope.txt";
+  try {
+    EvalApp(missing).run(d.path / "gtB.txt", d.path / "estB.txt");
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("nope.txt"), std::string::npos) << e.what();
+  }
+  // The pair may not be replaced by an output of the run.
+  EXPECT_THROW(EvalOutputFiles(app, d.path / "estA.txt", {}, {}), Error);
+}

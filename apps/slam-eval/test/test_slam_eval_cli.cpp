@@ -68,6 +68,29 @@ TEST(SlamEvalCli, EvaluatesAndWritesOutputs) {
   fs::remove_all(d);
 }
 
+TEST(SlamEvalCli, AlignFromAnotherPair) {
+  const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_af_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  pslam::writeTumTrajectory(d / "gtA.txt", spiral(90, 1.0));
+  pslam::writeTumTrajectory(d / "estA.txt", spiral(90, 0.25));
+  pslam::writeTumTrajectory(d / "gtB.txt", spiral(60, 1.0));
+  pslam::writeTumTrajectory(d / "estB.txt", spiral(60, 0.5));  // another scale than A's: not aligned away
+  const CliRun r = runCli((d / "gtB.txt").string() + " " + (d / "estB.txt").string() + " --align-from " +
+                       (d / "gtA.txt").string() + " " + (d / "estA.txt").string());
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("(90 pairs; not fitted to this estimate), scale 4.000000"), std::string::npos) << r.output;
+  const CliRun one = runCli((d / "gtB.txt").string() + " " + (d / "estB.txt").string() + " --align-from " +
+                         (d / "gtA.txt").string());
+  EXPECT_NE(one.exitCode, 0) << one.output;
+  const CliRun missing = runCli((d / "gtB.txt").string() + " " + (d / "estB.txt").string() + " --align-from " +
+                             (d / "gtA.txt").string() + " " + (d / "none.txt").string());
+  EXPECT_EQ(missing.exitCode, 1);
+  EXPECT_EQ(missing.output.rfind("slam-eval: error: --align-from ", 0), 0u) << missing.output;
+  EXPECT_EQ(std::count(missing.output.begin(), missing.output.end(), '\n'), 1) << missing.output;
+  fs::remove_all(d);
+}
+
 TEST(SlamEvalCli, BadInputIsOneErrorLineAndExitCodeOne) {
   const CliRun missing = runCli("/nonexistent/gt.txt /nonexistent/est.txt");
   EXPECT_EQ(missing.exitCode, 1);

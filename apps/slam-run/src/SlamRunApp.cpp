@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include "pslam/core/Error.h"
@@ -10,6 +11,7 @@
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/core/AtomicFile.h"
+#include "pslam/map/MapIO.h"
 #include "pslam/system/System.h"
 
 namespace pslam::apps {
@@ -37,6 +39,29 @@ void writeMapPointDepths(const map::Map& map, const AtomicOutput& output) {
   });
 }
 
+std::string describe(const map::CameraIntrinsics& c) {
+  std::ostringstream os;
+  os.precision(10);
+  os << "fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy << ", " << c.width << "x" << c.height;
+  return os.str();
+}
+
+/// The camera of a rawlog frame as System::track() takes it (intrinsics checked against the image size).
+geometry::PinholeCamera cameraOfFrame(const datasets::Frame& f, const std::filesystem::path& rawlog) {
+  const std::string ctx = rawlog.string() + ": frame " + std::to_string(f.index);
+  geometry::PinholeCamera cam;
+  try {
+    cam = geometry::PinholeCamera::fromTCamera(f.camera);
+    cam.check();
+  } catch (const std::exception& e) {
+    throw Error(ctx + ": invalid or missing CAMERA intrinsics: " + oneLineMessage(e));
+  }
+  require(cam.width == f.image.cols && cam.height == f.image.rows, ctx,
+          "intrinsics resolution " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+              " differs from the image " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows));
+  return cam;
+}
+
 }  // namespace
 
 nlohmann::json SlamRunSummary::toJson() const {
@@ -50,6 +75,14 @@ nlohmann::json SlamRunSummary::toJson() const {
           {"keyframes", keyFrames},
           {"map_points", mapPoints},
           {"resets", resets},
+          {"map_loaded", mapLoaded},
+          {"localization", localization},
+          {"loaded_keyframes", loadedKeyFrames},
+          {"loaded_map_points", loadedMapPoints},
+          {"frames_localized", framesLocalized},
+          {"frames_not_localized", framesProcessed - framesLocalized},
+          {"localized_share", framesProcessed > 0 ? double(framesLocalized) / double(framesProcessed) : 0.0},
+          {"first_localized_frame", firstLocalizedFrame},
           {"wall_seconds", wallSeconds},
           {"cpu_seconds", cpuSeconds}};
 }
@@ -57,8 +90,13 @@ nlohmann::json SlamRunSummary::toJson() const {
 std::string SlamRunSummary::toText() const {
   std::ostringstream os;
   os << "frames " << framesProcessed << ", tracked " << framesTracked << ", lost " << framesLost
-     << ", relocalizations " << relocalizations << ", initialized at "
-     << (initialized() ? std::to_string(initializedAtFrame) : std::string("never")) << ", keyframes " << keyFrames
+     << ", relocalizations " << relocalizations;
+  if (mapLoaded)
+    os << ", localized " << framesLocalized << "/" << framesProcessed << " in the loaded map ("
+       << loadedKeyFrames << " keyframes, " << (localization ? "localization only" : "mapping on") << ")";
+  else
+    os << ", initialized at " << (initialized() ? std::to_string(initializedAtFrame) : std::string("never"));
+  os << ", keyframes " << keyFrames
      << ", map points " << mapPoints << ", resets " << resets << ", wall " << std::fixed << std::setprecision(2)
      << wallSeconds << " s, cpu " << cpuSeconds << " s";
   return os.str();
@@ -72,12 +110,15 @@ SlamRunSummary SlamRunApp::run() {
   require(!options_.outDir.empty(), "slam-run", "no output folder given");
   require(options_.last < 0 || options_.last >= static_cast<long long>(options_.first), "slam-run",
           "--last " + std::to_string(options_.last) + " is before --first " + std::to_string(options_.first));
+  require(!options_.localization || !options_.mapIn.empty(), "--localization",
+          "needs --map-in (the map to localize in)");
   const system::SlamParams params = system::loadSlamParams(options_.config.string(), options_.overrides);
   require(std::filesystem::is_regular_file(options_.rawlog), options_.rawlog.string(), "rawlog not found");
 
   // All outputs are prepared before the run (none may be an input or replace a folder) and committed together.
   std::vector<std::filesystem::path> inputs = datasets::RawlogWriter::inputFilesOf(options_.rawlog);
   inputs.push_back(options_.config);
+  if (!options_.mapIn.empty()) inputs.push_back(options_.mapIn);  // never replaced by the map written
   OutputSet outputs(inputs);
   AtomicOutput& trajectoryOut = outputs.add(options_.outDir / "trajectory.txt");
   AtomicOutput& keyFramesOut = outputs.add(options_.outDir / "keyframes.txt");
@@ -89,26 +130,59 @@ SlamRunSummary SlamRunApp::run() {
   require(total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
   datasets::RawlogReader reader(options_.rawlog);
 
+  // A map to start from is read and checked before any frame (errors name the file).
+  std::optional<map::Map> loaded;
+  SlamRunSummary sum;
+  if (!options_.mapIn.empty()) {
+    loaded = map::loadMap(options_.mapIn);
+    require(loaded->numKeyFrames() > 0, options_.mapIn.string(), "map has no keyframe: nothing to localize in");
+    sum.mapLoaded = true;
+    sum.localization = options_.localization;
+    sum.loadedKeyFrames = loaded->numKeyFrames();
+    sum.loadedMapPoints = loaded->numMapPoints();
+  }
+
   system::SystemOptions so;
   so.seed = options_.seed;
   if (options_.threaded) so.threaded = true;
-  system::System slam(params, so);
+  // Made now to check the parameters; with a map it is made again at the first frame, with the rawlog's camera.
+  std::optional<system::System> slam;
+  slam.emplace(params, so);
 
-  SlamRunSummary sum;
   const std::size_t lastIndex = options_.last < 0 ? total - 1 : std::min<std::size_t>(options_.last, total - 1);
   const std::size_t toProcess = options_.first <= lastIndex ? lastIndex - options_.first + 1 : 0;
   Progress progress("slam-run", toProcess, options_.progress);
 
   datasets::Frame input;
+  std::vector<bool> localized;  // per processed frame: has a pose in the map
   while (reader.next(input)) {
     ++sum.framesRead;
     if (input.index < options_.first) continue;
     if (input.index > lastIndex) break;
+    if (loaded) {
+      // The map's camera must be the rawlog's (the map stores undistorted intrinsics; the run keeps the
+      // rawlog's distortion model).
+      const geometry::PinholeCamera cam = cameraOfFrame(input, options_.rawlog);
+      const map::CameraIntrinsics mapCamera = loaded->keyFrames().begin()->second.camera;
+      require(tracking::toIntrinsics(cam) == mapCamera, options_.mapIn.string(),
+              "map camera (" + describe(mapCamera) + ") differs from the camera of " + options_.rawlog.string() +
+                  " (" + describe(tracking::toIntrinsics(cam)) + ")");
+      so.camera = cam;
+      slam.emplace(params, so);
+      slam->setMappingEnabled(!options_.localization);
+      slam->setMap(std::move(*loaded), options_.mapIn.string());
+      loaded.reset();
+    }
     system::TrackResult r;
     try {
-      r = slam.track(input);
+      r = slam->track(input);
     } catch (const Error& e) {
       throw Error(options_.rawlog.string() + ": " + e.what());
+    }
+    localized.push_back(r.pose.has_value());
+    if (r.pose) {
+      ++sum.framesLocalized;
+      if (sum.firstLocalizedFrame < 0) sum.firstLocalizedFrame = static_cast<long long>(input.index);
     }
     ++sum.framesProcessed;
     progress.update(sum.framesProcessed, std::string(tracking::toString(r.status)) + " kf " +
@@ -117,10 +191,11 @@ SlamRunSummary SlamRunApp::run() {
   }
   require(sum.framesProcessed > 0 || sum.framesRead == 0, options_.rawlog.string(),
           "no frame in the range [" + std::to_string(options_.first) + ", " + std::to_string(lastIndex) + "]");
-  slam.finish();
+  system::System& slamRef = *slam;
+  slamRef.finish();
 
   // ---- outputs
-  const nlohmann::json counts = slam.summary();
+  const nlohmann::json counts = slamRef.summary();
   sum.framesTracked = counts["frames_tracked"];
   sum.framesLost = counts["frames_lost"];
   sum.relocalizations = counts["relocalizations"];
@@ -129,22 +204,28 @@ SlamRunSummary SlamRunApp::run() {
   sum.mapPoints = counts["map_points"];
   sum.resets = counts["resets"];
 
-  writeTumTrajectory(trajectoryOut.tempPath(), slam.trajectory(), "slam-run: every tracked frame, T_world_cam");
-  writeTumTrajectory(keyFramesOut.tempPath(), slam.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
-  slam.saveMap(mapOut.tempPath());
-  writeMapPointDepths(slam.mapSnapshot(), depthsOut);
+  writeTumTrajectory(trajectoryOut.tempPath(), slamRef.trajectory(), "slam-run: every tracked frame, T_world_cam");
+  writeTumTrajectory(keyFramesOut.tempPath(), slamRef.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
+  slamRef.saveMap(mapOut.tempPath());
+  writeMapPointDepths(slamRef.mapSnapshot(), depthsOut);
   sum.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   sum.cpuSeconds = system::processCpuSeconds() - cpu0;
 
-  nlohmann::json report = slam.report();
+  nlohmann::json report = slamRef.report();
   report["tool"] = "slam-run";
+  report["map_in"] = options_.mapIn.string();
+  report["localization"] = options_.localization;
+  nlohmann::json& frames = report["frames"];
+  if (frames.size() == localized.size())
+    for (std::size_t i = 0; i < localized.size(); ++i) frames[i]["localized"] = static_cast<bool>(localized[i]);
   report["rawlog"] = options_.rawlog.string();
   report["config_file"] = options_.config.string();
   report["overrides"] = options_.overrides;
   report["first"] = options_.first;
   report["last"] = lastIndex;
   report["summary"] = sum.toJson();
-  if (!sum.initialized()) report["warning"] = "initialization never succeeded: the trajectory is empty";
+  if (!sum.hasMap()) report["warning"] = "initialization never succeeded: the trajectory is empty";
+  else if (sum.mapLoaded && sum.framesLocalized == 0) report["warning"] = "no frame was localized in the loaded map";
   writeOutputFile(reportOut, [&](std::ostream& os) { os << report.dump(1) << "\n"; });
   outputs.commit();
   progress.finish(sum.toText());

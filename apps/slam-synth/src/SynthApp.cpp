@@ -1,5 +1,6 @@
 #include "pslam/synth/SynthApp.h"
 
+#include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <cmath>
@@ -32,6 +33,17 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 // ------------------------------------------------------------------------------------------------ options
+std::optional<std::string> pathVariantProblem(const std::string& scenario, int pathVariant) {
+  const auto& names = scenarioNames();
+  if (std::find(names.begin(), names.end(), scenario) == names.end()) return std::nullopt;
+  try {
+    requirePathVariant(scenario, pathVariant);
+  } catch (const Error& e) {
+    return std::string(e.what());
+  }
+  return std::nullopt;
+}
+
 void SynthOptions::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section) {
   // The rules only: out_dir may still come from the command line.
   params::load(*this, cfg, section);
@@ -66,7 +78,7 @@ PinholeCamera SynthOptions::camera() const {
 
 nlohmann::json SynthOptions::toJson() const {
   return {{"scenario", scenario}, {"frames", frames}, {"width", width}, {"height", height}, {"fx", fx},
-          {"fy", fy}, {"cx", cx}, {"cy", cy}, {"seed", seed}, {"texture", textured}, {"noise_sigma", noiseSigma},
+          {"fy", fy}, {"cx", cx}, {"cy", cy}, {"seed", seed}, {"path_variant", pathVariant}, {"texture", textured}, {"noise_sigma", noiseSigma},
           {"exposure", exposure}, {"supersampling", supersampling}, {"anti_aliasing", antiAliasing}, {"aa_contrast", aaContrast},
           {"out_dir", outDir.string()}, {"name", effectiveName()}, {"preview_frame", previewFrame},
           {"threads", threads}};
@@ -191,7 +203,7 @@ SynthSummary SynthApp::run() {
   if (!o.preview.empty() && previewFrame >= frames)
     throw Error("[synth] preview_frame: frame " + std::to_string(previewFrame) + " is beyond the " +
                 std::to_string(frames) + " frames generated");
-  const Scenario scenario = makeScenario(o.scenario, o.seed, duration);
+  const Scenario scenario = makeScenario(o.scenario, o.seed, duration, o.pathVariant);
   const PinholeCamera cam = o.camera();
   RenderOptions ro;
   ro.textured = o.textured;
@@ -310,6 +322,7 @@ SynthSummary SynthApp::run() {
   writer.commit();
   writeTumTrajectory(groundTruthOut.tempPath(), gt,
                      "ground truth of slam-synth scenario '" + o.scenario + "' seed " + std::to_string(o.seed) +
+                         (o.pathVariant != 0 ? " path variant " + std::to_string(o.pathVariant) : std::string()) +
                          " (camera-to-world, T_world_cam)");
   sum.frames = static_cast<std::size_t>(frames);
   sum.meanDynamicFraction /= frames;

@@ -67,6 +67,14 @@ TEST(SlamSynthE2E, BadInputGivesOneErrorLineAndExitCode1) {
   EXPECT_EQ(err.rfind("slam-synth: error: ", 0), 0u) << err;
   EXPECT_NE(err.find("moon"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(d) || (fs::directory_iterator(d)->path().filename() == "err.txt"));
+  // A path variant the scenario does not have.
+  const std::string cmd2 = tool().string() + " --scenario jam --path-variant 1 --frames 1 --out " + (d / "v").string() +
+                           " 2> " + (d / "err2.txt").string();
+  const int rc2 = std::system(cmd2.c_str());
+  EXPECT_TRUE(WIFEXITED(rc2) && WEXITSTATUS(rc2) == 1);
+  const std::string err2 = slurp(d / "err2.txt");
+  EXPECT_EQ(err2, "slam-synth: error: [synth] path_variant = 1: scenario 'jam' has no path variant 1 (it has only 0)\n");
+  EXPECT_FALSE(fs::exists(d / "v"));
 }
 
 namespace {

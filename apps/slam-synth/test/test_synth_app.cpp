@@ -78,6 +78,40 @@ TEST(SynthOptions, CheckNamesTheBadKey) {
   o = good;
   o.antiAliasing = "best";
   EXPECT_NE(checkError(o).find("anti_aliasing"), std::string::npos);
+  // Path variants exist per scenario: the error names the key and what the scenario has.
+  o = good;
+  o.pathVariant = 2;
+  EXPECT_EQ(checkError(o), "");
+  o.scenario = "street";
+  EXPECT_NE(checkError(o).find("[synth] path_variant = 2: scenario 'street' has no path variant 2 (it has only 0)"),
+            std::string::npos)
+      << checkError(o);
+  o = good;
+  o.pathVariant = -1;
+  EXPECT_NE(checkError(o).find("path_variant"), std::string::npos);
+}
+
+TEST(SynthApp, PathVariantIsAnotherPathThroughTheSameWorld) {
+  const fs::path d = tempDir("path_variant");
+  SynthOptions a = small("corridor", d / "a", 4, 2), b = a;
+  b.outDir = d / "b";
+  b.pathVariant = 1;
+  const SynthSummary sa = SynthApp(a).run(), sb = SynthApp(b).run();
+  const Trajectory ga = readTumTrajectory(sa.groundTruth), gb = readTumTrajectory(sb.groundTruth);
+  ASSERT_EQ(ga.size(), 2u);
+  ASSERT_EQ(gb.size(), 2u);
+  EXPECT_EQ(ga[0].timestamp, gb[0].timestamp);  // same stamps: trajectories of one world, side by side
+  EXPECT_GT((ga[0].position - gb[0].position).norm(), 0.5);
+  EXPECT_NE(readBytes(sb.groundTruth).find("seed 4 path variant 1"), std::string::npos);
+  EXPECT_EQ(readBytes(sa.groundTruth).find("path variant"), std::string::npos);  // variant 0: header as before
+  // The ini key sets the same option.
+  mrpt::config::CConfigFileMemory cfg;
+  cfg.write("synth", "scenario", "room");
+  cfg.write("synth", "path_variant", 2);
+  SynthOptions o;
+  o.loadFromConfigFile(cfg, "synth");
+  EXPECT_EQ(o.pathVariant, 2);
+  fs::remove_all(d);
 }
 
 TEST(SynthOptions, LoadsFromAnIniSectionAndRoundTrips) {

@@ -70,7 +70,12 @@ void addRoomShell(Scene& s, double X, double Y, double Z, int floorMat, const in
 }
 
 // ------------------------------------------------------------------------------------------------ room
-Scenario makeRoom(std::uint32_t seed, bool lowTextureVariant) {
+/// Seed of a path variant's hand shake: derived from the preset's, so variant 0 keeps its exact path.
+std::uint32_t variantJitterSeed(std::uint32_t seed, int pathVariant) {
+  return pathVariant == 0 ? seed : seed ^ (0x9E3779B9U * static_cast<std::uint32_t>(pathVariant));
+}
+
+Scenario makeRoom(std::uint32_t seed, bool lowTextureVariant, int pathVariant) {
   Dice dice(seed);
   Scenario sc;
   Scene& s = sc.scene;
@@ -103,13 +108,28 @@ Scenario makeRoom(std::uint32_t seed, bool lowTextureVariant) {
         {7, {4.2, 1.8, 1.55}, {1.8, 4.9, 1.0}},  {8, {4.6, 2.4, 1.5}, {0.1, 3.0, 1.2}},
         {10, {4.0, 3.7, 1.4}, {0.1, 1.2, 1.0}},  {12, {2.8, 4.0, 1.45}, {3.0, 0.1, 1.0}},
         {14, {1.5, 3.2, 1.5}, {5.9, 1.2, 1.2}},  {16, {1.0, 1.0, 1.5}, {4.5, 3.5, 1.0}}};
+    if (pathVariant == 1) {
+      // The same loop 15 % closer to the room centre and 0.15 m lower: it stays clear of the furniture (the
+      // camera is above the table and sofa, further from the cabinet and shelf) and sees the same walls.
+      const Vector2d centre(X / 2, Y / 2);
+      for (auto& k : keys) {
+        const Vector2d xy = centre + 0.85 * (k.position.head<2>() - centre);
+        k.position = Vector3d(xy.x(), xy.y(), k.position.z() - 0.15);
+      }
+    }
     Jitter j;
     j.angle = 0.01;
     j.position = 0.008;
     j.frequency = 1.2;
-    j.seed = dice.seed();
+    j.seed = variantJitterSeed(dice.seed(), pathVariant);
     CameraPath path(keys, j, true);
-    sc.T_world_cam = [path](double t) { return path.pose(t); };
+    if (pathVariant == 2) {
+      // The loop backwards (the spline is periodic: pose(16 - t) is as smooth as pose(t)).
+      const double period = keys.back().t - keys.front().t;
+      sc.T_world_cam = [path, period](double t) { return path.pose(period - t); };
+    } else {
+      sc.T_world_cam = [path](double t) { return path.pose(t); };
+    }
     return sc;
   }
   // lowtexture: a hall with a Manhattan structure of near-uniform boards in the middle.
@@ -559,7 +579,7 @@ double corridorLoopLength() {
   return 2 * (X - 2 * r) + 2 * (Y - 2 * r) + 2 * M_PI * r;
 }
 
-Scenario makeCorridor(std::uint32_t seed) {
+Scenario makeCorridor(std::uint32_t seed, int pathVariant) {
   Dice dice(seed);
   Scenario sc;
   sc.info = scenarioInfo("corridor");
@@ -578,23 +598,40 @@ Scenario makeCorridor(std::uint32_t seed) {
   }
   const int inner = s.addMaterial(material(TextureKind::CorridorWall, TrainId::Wall, dice.seed(), 0.68f, 0.06f, {4.2f}));
   s.addStaticBox("inner block", {X / 2, Y / 2, 0}, {X - w, Y - w, Z}, 0, inner);
-  const double L = corridorLoopLength();
   const double v = 1.2, ramp = 1.5;
-  const SpeedProfile speed({0.0, ramp}, {0.0, v}, 2.0);  // starts 2 m along the first straight, walking pace
+  // Where the walk starts (arc length along the loop), its direction, and its offset from the centre line
+  // (right of the walking direction) and height. Variant 0: 2 m along the first straight, counter-clockwise.
+  double start = 2.0, direction = 1.0, lateral = 0.0, height = 1.3, targetHeight = 1.15;
+  if (pathVariant == 1) {
+    start = 3.0;
+    lateral = 0.35;
+    height = 1.45;
+    targetHeight = 1.3;
+  } else if (pathVariant == 2) {
+    start = 21.0;  // near the end of the first straight, walking back towards the preset's start
+    direction = -1.0;
+  }
+  // From rest to walking pace. Forwards the start is the profile's offset (the preset's exact arithmetic).
+  const SpeedProfile speed({0.0, ramp}, {0.0, v}, direction > 0 ? start : 0.0);
   Jitter j;
   j.angle = 0.004;
   j.position = 0.003;
   j.frequency = 1.0;
-  j.seed = dice.seed();
-  (void)L;
+  j.seed = variantJitterSeed(dice.seed(), pathVariant);
   sc.T_world_cam = [=](double t) {
-    const double sNow = speed.distance(std::max(t, 0.0));
+    const double travelled = speed.distance(std::max(t, 0.0));
+    const double sNow = direction > 0 ? travelled : start - travelled;
     Vector2d p, tan, pAhead, tanAhead;
     roundedRectangle(X, Y, r, sNow, p, tan);
-    roundedRectangle(X, Y, r, sNow + 1.5, pAhead, tanAhead);  // look ahead: turns start before the corner
+    roundedRectangle(X, Y, r, sNow + direction * 1.5, pAhead, tanAhead);  // look ahead: turns start before the corner
+    tan *= direction;
+    tanAhead *= direction;
+    const Vector2d right(tan.y(), -tan.x());
+    p += lateral * right;
+    pAhead += lateral * Vector2d(tanAhead.y(), -tanAhead.x());
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    const Vector3d pos(p.x(), p.y(), 1.3);
-    const Vector3d target(pAhead.x() + 2.0 * tanAhead.x(), pAhead.y() + 2.0 * tanAhead.y(), 1.15);
+    const Vector3d pos(p.x(), p.y(), height);
+    const Vector3d target(pAhead.x() + 2.0 * tanAhead.x(), pAhead.y() + 2.0 * tanAhead.y(), targetHeight);
     T.linear() = lookAtRotation(target - pos, Vector3d::UnitZ());
     T.translation() = pos;
     return applyJitter(T, j, t);
@@ -619,6 +656,7 @@ ScenarioInfo scenarioInfo(const std::string& name) {
     i.depthUnit = 1.0 / 5000.0;
     i.focalAt640 = 481.2;
     i.defaultFrames = 300;
+    i.pathVariants = 3;
   } else if (name == "lowtexture") {
     i.description = "near-uniform Manhattan structure of boxes in a plain hall, seen from ~1.5 m then 4-5 m "
                     "(TUM structure_notexture-like)";
@@ -640,6 +678,7 @@ ScenarioInfo scenarioInfo(const std::string& name) {
     i.depthUnit = 1.0 / 2000.0;  // the 20 m straights exceed the 13 m range of 1/5000 m units
     i.focalAt640 = 450.0;
     i.defaultFrames = static_cast<int>(std::ceil((corridorLoopLength() / 1.2 + 0.75 + 1.0) * 15));
+    i.pathVariants = 3;
   } else if (name == "jam" || name == "jam-static") {
     i.description = name == "jam"
                         ? "stop-and-go traffic jam on a motorway between homogeneous vegetation, guardrails and dashed "
@@ -659,13 +698,20 @@ ScenarioInfo scenarioInfo(const std::string& name) {
   return i;
 }
 
-Scenario makeScenario(const std::string& name, std::uint32_t seed, double duration) {
+void requirePathVariant(const std::string& name, int pathVariant) {
   const ScenarioInfo info = scenarioInfo(name);  // validates the name
-  if (name == "room") return makeRoom(seed, false);
-  if (name == "lowtexture") return makeRoom(seed, true);
+  if (pathVariant >= 0 && pathVariant < info.pathVariants) return;
+  throw Error("scenario '" + name + "' has no path variant " + std::to_string(pathVariant) + " (it has " +
+              (info.pathVariants == 1 ? std::string("only 0") : "0 to " + std::to_string(info.pathVariants - 1)) + ")");
+}
+
+Scenario makeScenario(const std::string& name, std::uint32_t seed, double duration, int pathVariant) {
+  requirePathVariant(name, pathVariant);  // validates the name too
+  if (name == "room") return makeRoom(seed, false, pathVariant);
+  if (name == "lowtexture") return makeRoom(seed, true, pathVariant);
   if (name == "street") return makeStreet(seed, duration);
   if (name == "jam" || name == "jam-static") return makeJam(seed, duration, name == "jam");
-  return makeCorridor(seed);
+  return makeCorridor(seed, pathVariant);
 }
 
 }  // namespace pslam::synth

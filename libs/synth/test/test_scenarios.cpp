@@ -6,6 +6,8 @@
 #include <cmath>
 #include <string>
 
+#include "pslam/core/Error.h"
+#include "pslam/core/Trajectory.h"
 #include "pslam/synth/Scenarios.h"
 
 using namespace pslam::synth;
@@ -51,4 +53,74 @@ TEST(Scenarios, StreetTrafficStopsAndGoes) {
   int parked = 0;
   for (const auto& o : s.scene.objects) parked += o.name == "parked car" && !o.moving;
   EXPECT_GT(parked, 50);
+}
+
+namespace {
+/// The pose part of the TUM line of T_world_cam(t) (what slam-synth writes as ground truth).
+std::string tumPose(const Scenario& s, double t) {
+  const std::string line = pslam::formatTumLine(pslam::StampedPose(1000.0, s.T_world_cam(t)));
+  return line.substr(line.find(' ') + 1);
+}
+}  // namespace
+
+TEST(PathVariants, VariantZeroIsThePresetPathBitForBit) {
+  // Ground truth written by slam-synth before path variants existed (seed 2, frame 11).
+  EXPECT_EQ(tumPose(makeScenario("corridor", 2, 1.0, 0), 11 / 15.0),
+            "3.06004051 -0.00222383219 1.30002628 -0.511094989 0.511673163 -0.488030953 0.488669903");
+  EXPECT_EQ(tumPose(makeScenario("room", 2, 1.0, 0), 11 / 30.0),
+            "1.03279198 0.937721176 1.49447967 -0.663416721 0.337730278 -0.301528182 0.595732548");
+  EXPECT_EQ(tumPose(makeScenario("corridor", 2, 1.0), 7.0), tumPose(makeScenario("corridor", 2, 1.0, 0), 7.0));
+}
+
+TEST(PathVariants, SameWorldOtherPath) {
+  for (const std::string name : {"room", "corridor"}) {
+    ASSERT_EQ(scenarioInfo(name).pathVariants, 3) << name;
+    const Scenario a = makeScenario(name, 5, 20.0, 0);
+    for (int v : {1, 2}) {
+      const Scenario b = makeScenario(name, 5, 20.0, v);
+      // Same scene: the same primitives with the same materials (texture seeds included).
+      ASSERT_EQ(a.scene.materials.size(), b.scene.materials.size()) << name << v;
+      for (std::size_t m = 0; m < a.scene.materials.size(); ++m)
+        EXPECT_EQ(a.scene.materials[m].seed, b.scene.materials[m].seed) << name << v;
+      EXPECT_EQ(a.scene.objects.size(), b.scene.objects.size());
+      // Another camera path, still moving from the start (parallax for initialization).
+      EXPECT_GT((a.T_world_cam(1.0).translation() - b.T_world_cam(1.0).translation()).norm(), 0.1) << name << v;
+      EXPECT_GT((b.T_world_cam(1.0).translation() - b.T_world_cam(0.0).translation()).norm(), 0.2) << name << v;
+    }
+  }
+}
+
+TEST(PathVariants, CorridorVariantsStayInTheCorridor) {
+  // The corridor is 2.4 m wide around the centre line y = 0 on the first straight (x from 0.9 to 23.1).
+  const Scenario offset = makeScenario("corridor", 1, 20.0, 1), back = makeScenario("corridor", 1, 20.0, 2);
+  for (double t = 0; t < 14; t += 0.5) {
+    const Eigen::Vector3d p = offset.T_world_cam(t).translation();
+    EXPECT_NEAR(p.y(), -0.35, 0.02) << t;  // right of the walking direction (+x)
+    EXPECT_NEAR(p.z(), 1.45, 0.02) << t;
+    const Eigen::Vector3d q = back.T_world_cam(t).translation();
+    EXPECT_NEAR(q.y(), 0.0, 0.02) << t;
+    // Walking back towards -x, looking along -x.
+    EXPECT_LT(back.T_world_cam(t).linear().col(2).x(), -0.9) << t;
+    if (t > 2) {
+      EXPECT_LT(q.x(), back.T_world_cam(t - 1).translation().x() - 0.5) << t;
+    }
+  }
+  EXPECT_GT(offset.T_world_cam(0).translation().x(), makeScenario("corridor", 1, 20.0).T_world_cam(0).translation().x() + 0.9);
+}
+
+TEST(PathVariants, UnsupportedVariantIsAClearError) {
+  try {
+    makeScenario("street", 1, 10.0, 1);
+    ADD_FAILURE() << "no error";
+  } catch (const pslam::Error& e) {
+    EXPECT_STREQ(e.what(), "scenario 'street' has no path variant 1 (it has only 0)");
+  }
+  try {
+    requirePathVariant("corridor", 3);
+    ADD_FAILURE() << "no error";
+  } catch (const pslam::Error& e) {
+    EXPECT_STREQ(e.what(), "scenario 'corridor' has no path variant 3 (it has 0 to 2)");
+  }
+  EXPECT_THROW(requirePathVariant("room", -1), pslam::Error);
+  EXPECT_NO_THROW(requirePathVariant("jam", 0));
 }

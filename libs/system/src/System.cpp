@@ -6,6 +6,7 @@
 #include <ctime>
 #include <deque>
 #include <mutex>
+#include <sstream>
 #include <thread>
 
 #include "pslam/core/Error.h"
@@ -394,9 +395,19 @@ map::Map System::mapSnapshot() const {
 
 void System::saveMap(const std::filesystem::path& path) const { map::saveMap(mapSnapshot(), path); }
 
-void System::loadMap(const std::filesystem::path& path) {
-  map::Map loaded = map::loadMap(path);
-  require(loaded.numKeyFrames() > 0, path.string(), "map has no keyframe: nothing to localize against");
+void System::loadMap(const std::filesystem::path& path) { setMap(map::loadMap(path), path.string()); }
+
+namespace {
+std::string describe(const map::CameraIntrinsics& c) {
+  std::ostringstream os;
+  os.precision(10);  // intrinsics that differ in a late digit must not print alike
+  os << "fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy << ", " << c.width << "x" << c.height;
+  return os.str();
+}
+}  // namespace
+
+void System::setMap(map::Map loaded, const std::string& source) {
+  require(loaded.numKeyFrames() > 0, source, "map has no keyframe: nothing to localize against");
   const map::CameraIntrinsics mapCamera = loaded.keyFrames().begin()->second.camera;
   if (!impl_) {
     // Without a camera yet, the map's (undistorted) intrinsics are the camera; frames must then fit them.
@@ -408,10 +419,8 @@ void System::loadMap(const std::filesystem::path& path) {
   impl_->waitForMapping();
   std::lock_guard<std::mutex> mk(impl_->mapMutex);
   const map::CameraIntrinsics own = tracking::toIntrinsics(impl_->camera);
-  require(own == mapCamera, path.string(),
-          "map camera (fx " + std::to_string(mapCamera.fx) + ", " + std::to_string(mapCamera.width) + "x" +
-              std::to_string(mapCamera.height) + ") differs from the camera of this run (fx " + std::to_string(own.fx) +
-              ", " + std::to_string(own.width) + "x" + std::to_string(own.height) + ")");
+  require(own == mapCamera, source,
+          "map camera (" + describe(mapCamera) + ") differs from the camera of this run (" + describe(own) + ")");
   impl_->map = std::move(loaded);
   impl_->mapper->reset();
   if (impl_->directFrontEnd) impl_->directFrontEnd->reset();

@@ -59,6 +59,10 @@ struct EvalOptions {
   std::filesystem::path depthRawlog;   ///< rawlog with the DEPTH channel
   DepthRatioOptions depthRatio;
   bool depthUseAlignmentScale = false;  ///< multiply estimated depths by the Sim(3) scale
+  /// --align-from: the alignment is not fitted to this estimate but taken from another estimate of the same
+  /// run coordinate frame and its ground truth (same association and alignment options), e.g. the map-building
+  /// run whose map a localization run reused (doc/maps.md). Both empty = align the estimate itself.
+  std::filesystem::path alignFromGt, alignFromEst;
 
   /// The ini keys (section e.g. [slam_eval], pslam/core/Params.h: strict, unknown keys are errors). The input
   /// files (formats, times, DR inputs) come from the command line only.
@@ -99,6 +103,9 @@ struct EvalResult {
   Trajectory gtAssociated;   ///< pair k: ground truth
   Trajectory estAligned;     ///< pair k: estimate after alignment
   Alignment alignment;
+  /// --align-from: the alignment came from that pair (alignmentPairs associated poses), not from this estimate.
+  bool alignmentGiven = false;
+  std::size_t alignmentPairs = 0;
   AteResult ate;
   std::optional<RpeResult> rpe;
   std::optional<RotationErrorResult> rotationError;
@@ -116,6 +123,12 @@ class EvalApp {
   EvalResult run(const std::filesystem::path& gtPath, const std::filesystem::path& estPath) const;
   /// Evaluates trajectories in memory.
   EvalResult evaluate(const Trajectory& gt, const Trajectory& est) const;
+  /// Evaluates with a given alignment (applied to the associated estimate instead of fitting one).
+  EvalResult evaluate(const Trajectory& gt, const Trajectory& est, const Alignment& given,
+                      std::size_t givenPairs) const;
+  /// The alignment evaluate() fits to `est` and `gt` (association and alignment options); `pairs` = the number
+  /// of associated poses it used.
+  Alignment computeAlignment(const Trajectory& gt, const Trajectory& est, std::size_t* pairs = nullptr) const;
 
   /// Human-readable table (one line per metric).
   std::string formatTable(const EvalResult& result) const;
@@ -129,12 +142,15 @@ class EvalApp {
                                                 const std::string& titlePrefix = "") const;
   /// The file names of the plots writePlots() writes with these options.
   std::vector<std::string> plotFileNames() const;
-  /// The files a run reads besides the two trajectories: times files, DR samples, DR rawlog and its images.
+  /// The files a run reads besides the two trajectories: times files, DR samples, DR rawlog and its images,
+  /// the --align-from pair.
   std::vector<std::filesystem::path> inputFiles() const;
 
  private:
   friend class EvalOutputFiles;
   std::vector<std::pair<std::string, Plot>> makePlots(const EvalResult& result, const std::string& titlePrefix) const;
+  EvalResult evaluateImpl(const Trajectory& gt, const Trajectory& est, const Alignment* given,
+                          std::size_t givenPairs) const;
   EvalOptions options_;
 };
 

@@ -8,6 +8,13 @@
 //   report.json     System::report() + the run's inputs (rawlog, config file, overrides, frame range)
 // Every file is written atomically; the four are prepared before the run (none may be an input or replace a
 // folder: pslam::OutputSet) and committed together at its end, so a failed run writes none of them.
+//
+// Map reuse (doc/maps.md): with `mapIn` the run starts from a saved map instead of initializing one: the map is
+// read and checked before the first frame (missing, corrupt, other format version: an error naming the file), its
+// camera must equal the rawlog's (first frame in range), and tracking relocalizes against it. Mapping then goes
+// on (new keyframes extend the loaded map) unless `localization` is set: the map stays fixed (not even the
+// points' counters change) and every frame is only tracked or relocalized; map.slammap is then the input map.
+// report.json gives each frame `localized` (the frame has a pose in the map) and the summary counts them.
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -27,6 +34,8 @@ struct SlamRunOptions {
   long long last = -1;          ///< last frame index (inclusive), < 0 = to the end
   bool threaded = false;        ///< overrides [System] threaded when set
   bool progress = true;
+  std::filesystem::path mapIn;  ///< start from this saved map (empty: initialize a new one)
+  bool localization = false;    ///< with mapIn: the map stays fixed, frames are only localized in it
 };
 
 struct SlamRunSummary {
@@ -34,7 +43,14 @@ struct SlamRunSummary {
   long long initializedAtFrame = -1;
   std::size_t keyFrames = 0, mapPoints = 0, resets = 0;
   double wallSeconds = 0, cpuSeconds = 0;
+  /// Map reuse: the run started from a saved map (of loadedKeyFrames keyframes), localization only or not.
+  bool mapLoaded = false, localization = false;
+  std::size_t loadedKeyFrames = 0, loadedMapPoints = 0;
+  std::size_t framesLocalized = 0;        ///< processed frames with a pose in the map
+  long long firstLocalizedFrame = -1;     ///< index of the first of them (-1: none)
   bool initialized() const { return initializedAtFrame >= 0; }
+  /// Has the run produced a map to track in: initialized, or started from a loaded map.
+  bool hasMap() const { return initialized() || mapLoaded; }
   nlohmann::json toJson() const;
   std::string toText() const;
 };
@@ -43,7 +59,8 @@ class SlamRunApp {
  public:
   explicit SlamRunApp(SlamRunOptions options);
   /// Throws pslam::Error naming the file (and frame) for bad input: missing/invalid config or override,
-  /// rawlog without CAMERA, missing intrinsics, images that change size.
+  /// rawlog without CAMERA, missing intrinsics, images that change size; --localization without a map; a
+  /// missing, corrupt or foreign map, or one whose camera differs from the rawlog's.
   SlamRunSummary run();
 
  private:

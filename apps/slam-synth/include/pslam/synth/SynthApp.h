@@ -10,6 +10,7 @@
 //   <name>_synth.json                  effective options, intrinsics, depth unit, summary
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,10 @@
 
 namespace pslam::synth {
 
+/// Why `pathVariant` is not a path variant of `scenario` (nullopt: it is, or the scenario is unknown, which the
+/// scenario key reports).
+std::optional<std::string> pathVariantProblem(const std::string& scenario, int pathVariant);
+
 struct SynthOptions {
   std::string scenario = "room";
   int frames = 0;          ///< 0 = the scenario's default length
@@ -31,6 +36,7 @@ struct SynthOptions {
   double fx = 0, fy = 0;   ///< 0 = scenario default focal length scaled to the width
   double cx = -1, cy = -1; ///< negative = image centre ((w-1)/2, (h-1)/2)
   std::uint32_t seed = 1;
+  int pathVariant = 0;     ///< another camera path through the same scene (Scenarios.h); 0 = the preset's
   bool textured = true;
   double noiseSigma = 0.0; ///< std of additive Gaussian image noise in grey levels
   bool exposure = false;   ///< per-frame affine brightness change a*I+b (smooth in time, from the seed)
@@ -58,6 +64,10 @@ struct SynthOptions {
     PSLAM_FIELD(v, cx, finite(), "principal point x (negative = (width-1)/2)");
     PSLAM_FIELD(v, cy, finite(), "principal point y (negative = (height-1)/2)");
     PSLAM_FIELD(v, seed, anyValue, "seed of textures, placements, traffic, jitter, noise");
+    PSLAM_KEY(v, "path_variant", pathVariant,
+              custom([this](int n) -> std::optional<std::string> { return pathVariantProblem(scenario, n); },
+                     "a path variant of the scenario (room, corridor: 0, 1, 2; the others: 0)"),
+              "camera path through the same scene (0 = the preset's; which others exist depends on the scenario)");
     PSLAM_KEY(v, "texture", textured, anyValue, "procedural textures (false: white surfaces, shading only)");
     PSLAM_KEY(v, "noise_sigma", noiseSigma, inClosed(0, 100), "Gaussian image noise std in grey levels");
     PSLAM_FIELD(v, exposure, anyValue, "per-frame affine brightness change");

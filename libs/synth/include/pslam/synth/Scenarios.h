@@ -22,6 +22,9 @@ struct ScenarioInfo {
   double depthUnit = 1.0 / 5000.0;  ///< metres per u16 depth unit
   double focalAt640 = 525.0;        ///< default fx = fy for a 640-pixel-wide image (scaled with the width)
   int defaultFrames = 300;
+  /// Camera paths through the same scene: variant 0 is the preset's path, 1 .. pathVariants-1 other paths
+  /// (same seed = same scene, textures and objects; only the camera differs).
+  int pathVariants = 1;
 };
 
 struct Scenario {
@@ -36,7 +39,15 @@ const std::vector<std::string>& scenarioNames();
 /// Info of a preset without building it. Throws pslam::Error for an unknown name (listing the known ones).
 ScenarioInfo scenarioInfo(const std::string& name);
 /// Builds a preset. `duration` (seconds) lets open-ended scenes (street, jam) extend far enough; textures,
-/// placements of parked cars and pedestrians, traffic and jitter derive from `seed`.
-Scenario makeScenario(const std::string& name, std::uint32_t seed, double duration);
+/// placements of parked cars and pedestrians, traffic and jitter derive from `seed`. `pathVariant` chooses
+/// another camera path through the same scene (map reuse: build a map on one path, localize on another):
+///   room      1 = the loop shrunk by 15 % towards the room centre and 0.15 m lower; 2 = the loop walked backwards
+///   corridor  1 = starts 1 m further along the loop, 0.35 m right of the centre line, camera 0.15 m higher;
+///             2 = walks back along the first straight (starts 21 m along the loop, clockwise)
+/// Variant 0 is the preset's path, bit for bit. Throws pslam::Error naming the scenario and its variants for a
+/// variant it does not have.
+Scenario makeScenario(const std::string& name, std::uint32_t seed, double duration, int pathVariant = 0);
+/// Throws pslam::Error unless scenario `name` has path variant `pathVariant` (the message lists the ones it has).
+void requirePathVariant(const std::string& name, int pathVariant);
 
 }  // namespace pslam::synth

@@ -83,6 +83,9 @@ class System {
   /// (the next frames are "lost" until relocalization succeeds). Throws pslam::Error naming the file for a
   /// missing, corrupt or foreign map, or a map whose camera differs from options.camera.
   void loadMap(const std::filesystem::path& path);
+  /// The same with a map already in memory (e.g. read with map::loadMap to check it before the run); `source`
+  /// names it in errors (a file name). Throws pslam::Error for a map without keyframes or with another camera.
+  void setMap(map::Map map, const std::string& source);
 
   /// Localization only (stella_vslam's disable_mapping_module): false = no new keyframes are mapped, the map
   /// is not changed by tracking; true (default) = full SLAM.

@@ -1,0 +1,82 @@
+#pragma once
+// The slam-map application: what is in a saved map (.slammap, libs/map/MapIO.h) and two views of it.
+//   info    counts (keyframes, points, observations), camera, format version, file size, extent, keyframe
+//           path length and, when the points carry the probabilistic keypoint model (§3.3), statistics of
+//           its inlier ratio phi (eq. 3.22) and of the depth updates
+//   export  an ASCII PLY of the good map points and the keyframe centres, and a PNG top view of both
+// A top view needs "up": the map's frame is the first keyframe's camera frame, not a gravity frame, so up is
+// taken as the mean of the keyframes' camera -y axes (cameras held roughly level), or, when those disagree,
+// as the normal of the plane the keyframe centres span.
+// Outputs are prepared before the work and written under temporary names, then renamed (pslam::OutputSet).
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "pslam/map/Map.h"
+
+namespace pslam::apps {
+
+/// Statistics of one quantity over the map points (count 0: no value).
+struct ValueStats {
+  std::size_t count = 0;
+  double mean = 0, median = 0, min = 0, max = 0;
+  static ValueStats of(std::vector<double> values);
+  nlohmann::json toJson() const;
+};
+
+struct MapInfo {
+  std::filesystem::path file;
+  std::uintmax_t fileBytes = 0;
+  int formatVersion = 0;
+  map::CameraIntrinsics camera;
+  std::size_t keyFrames = 0, mapPoints = 0, badPoints = 0, observations = 0;
+  double firstStamp = 0, lastStamp = 0;     ///< keyframe timestamps
+  double keyFramePathLength = 0;            ///< along the keyframe centres in timestamp order (map units)
+  ValueStats observationsPerPoint;
+  Eigen::Vector3d pointMin = Eigen::Vector3d::Zero(), pointMax = Eigen::Vector3d::Zero();  ///< good points
+  // The probabilistic keypoint model (empty counts: the points carry none, e.g. a heuristic run).
+  std::size_t pointsWithModel = 0, invalidModelStates = 0;
+  ValueStats inlierRatio;                   ///< phi of eq. 3.22 (default keypoint-model parameters)
+  std::size_t activePoints = 0;             ///< phi >= psi_min
+  double psiMin = 0;
+  ValueStats depthUpdates;
+  nlohmann::json toJson() const;
+  std::string toText() const;
+};
+
+/// Reads `file` (map::loadMap: errors name the file) and summarizes it.
+MapInfo mapInfo(const std::filesystem::path& file);
+/// The same for a map in memory (file size 0 unless `file` exists).
+MapInfo mapInfo(const map::Map& map, const std::filesystem::path& file = {});
+
+/// The inlier ratio phi of every good point that carries a valid keypoint-model state (default parameters of
+/// landmarks::KeypointModelParams; the map does not store the run's [PointModel]); by point id.
+std::vector<std::pair<map::MapPointId, double>> inlierRatios(const map::Map& map);
+
+struct MapExportOptions {
+  std::filesystem::path map;
+  std::filesystem::path ply;  ///< empty: no PLY
+  std::filesystem::path png;  ///< empty: no PNG
+  int pngWidth = 1200, pngHeight = 900;
+};
+
+struct MapExportSummary {
+  std::size_t points = 0, keyFrames = 0;
+  std::size_t pointsOutsideView = 0;  ///< PNG: far outliers left out of the top view
+  bool colouredByInlierRatio = false;
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  ///< the map direction shown as "up" (out of the top view)
+  std::string toText() const;
+};
+
+/// The map's "up" direction for a top view (see the top of this file). Throws pslam::Error for an empty map.
+Eigen::Vector3d mapUpDirection(const map::Map& map);
+
+/// Writes the PLY and/or the PNG (at least one). Throws pslam::Error naming the file at fault; nothing is
+/// written unless all outputs succeed.
+MapExportSummary exportMap(const MapExportOptions& options);
+
+}  // namespace pslam::apps

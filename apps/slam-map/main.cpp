@@ -1,0 +1,45 @@
+// slam-map: inspects and exports saved maps (thin CLI around pslam::apps in SlamMapApp.h; doc/maps.md).
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "pslam/apps/SlamMapApp.h"
+#include "pslam/core/Error.h"
+
+int main(int argc, char** argv) {
+  CLI::App cli{"Saved maps (.slammap): what is in them, and a PLY / PNG view of them"};
+  cli.require_subcommand(1);
+  std::string infoMap;
+  bool json = false;
+  CLI::App* infoCmd = cli.add_subcommand("info", "keyframes, points, camera, format version, file size, point-model statistics");
+  infoCmd->add_option("map", infoMap, "map file (map.slammap of slam-run)")->required();
+  infoCmd->add_flag("--json", json, "print JSON instead of text");
+  pslam::apps::MapExportOptions ex;
+  std::string exportMap, ply, png;
+  CLI::App* exportCmd = cli.add_subcommand("export", "PLY of the points and keyframe centres, PNG top view");
+  exportCmd->add_option("map", exportMap, "map file")->required();
+  exportCmd->add_option("--ply", ply, "ASCII PLY: good map points (coloured by inlier ratio when the map has the point model) "
+                                "and keyframe centres (red)");
+  exportCmd->add_option("--png", png, "top view from above: points and the keyframe trajectory");
+  exportCmd->add_option("--width", ex.pngWidth, "PNG width in pixels")->capture_default_str();
+  exportCmd->add_option("--height", ex.pngHeight, "PNG height in pixels")->capture_default_str();
+  CLI11_PARSE(cli, argc, argv);
+  try {
+    if (*infoCmd) {
+      const pslam::apps::MapInfo i = pslam::apps::mapInfo(infoMap);
+      if (json)
+        std::cout << i.toJson().dump(2) << "\n";
+      else
+        std::cout << i.toText();
+    } else {
+      ex.map = exportMap;
+      ex.ply = ply;
+      ex.png = png;
+      std::cout << pslam::apps::exportMap(ex).toText() << "\n";
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "slam-map: error: " << pslam::oneLineMessage(e) << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,366 @@
+#include "pslam/apps/SlamMapApp.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iomanip>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+#include "pslam/eval/Plot.h"
+#include "pslam/landmarks/KeypointModel.h"
+#include "pslam/map/MapIO.h"
+#include "pslam/mapping/LocalMapper.h"
+
+namespace fs = std::filesystem;
+
+namespace pslam::apps {
+
+namespace {
+
+std::string fmt(double v, int decimals = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+
+nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+/// Good (not bad) points, in id order.
+template <class F>
+void forGoodPoints(const map::Map& map, F&& f) {
+  for (const auto& [id, p] : map.mapPoints())
+    if (!p.bad) f(id, p);
+}
+
+/// Keyframes in timestamp order: the order of the keyframe trajectory.
+std::vector<const map::KeyFrame*> keyFramesByTime(const map::Map& map) {
+  std::vector<const map::KeyFrame*> kfs;
+  for (const auto& [id, kf] : map.keyFrames()) kfs.push_back(&kf);
+  std::stable_sort(kfs.begin(), kfs.end(),
+                   [](const map::KeyFrame* a, const map::KeyFrame* b) { return a->timestamp < b->timestamp; });
+  return kfs;
+}
+
+}  // namespace
+
+ValueStats ValueStats::of(std::vector<double> v) {
+  ValueStats s;
+  s.count = v.size();
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  s.min = v.front();
+  s.max = v.back();
+  double sum = 0;
+  for (double x : v) sum += x;
+  s.mean = sum / static_cast<double>(v.size());
+  const std::size_t n = v.size();
+  s.median = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  return s;
+}
+
+nlohmann::json ValueStats::toJson() const {
+  return {{"count", count}, {"mean", mean}, {"median", median}, {"min", min}, {"max", max}};
+}
+
+std::vector<std::pair<map::MapPointId, double>> inlierRatios(const map::Map& map) {
+  const landmarks::KeypointModel model{landmarks::KeypointModelParams{}};
+  std::vector<std::pair<map::MapPointId, double>> out;
+  forGoodPoints(map, [&](map::MapPointId id, const map::MapPoint& p) {
+    if (p.landmarkState.empty()) return;
+    try {
+      out.emplace_back(id, model.inlierRatio(mapping::decodeKeypointState(p.landmarkState, "map point")));
+    } catch (const Error&) {
+      // counted by mapInfo() as an invalid state; not drawn
+    }
+  });
+  return out;
+}
+
+MapInfo mapInfo(const fs::path& file) { return mapInfo(map::loadMap(file), file); }
+
+MapInfo mapInfo(const map::Map& map, const fs::path& file) {
+  MapInfo info;
+  info.file = file;
+  std::error_code ec;
+  if (!file.empty() && fs::is_regular_file(file, ec)) info.fileBytes = fs::file_size(file, ec);
+  info.formatVersion = map::CSlamMapArchive::kFormatVersion;
+  info.keyFrames = map.numKeyFrames();
+  info.mapPoints = map.numMapPoints();
+  if (!map.keyFrames().empty()) info.camera = map.keyFrames().begin()->second.camera;
+
+  const auto kfs = keyFramesByTime(map);
+  if (!kfs.empty()) {
+    info.firstStamp = kfs.front()->timestamp;
+    info.lastStamp = kfs.back()->timestamp;
+  }
+  for (std::size_t i = 1; i < kfs.size(); ++i)
+    info.keyFramePathLength +=
+        (kfs[i]->T_world_cam().translation() - kfs[i - 1]->T_world_cam().translation()).norm();
+
+  const landmarks::KeypointModelParams modelParams;
+  const landmarks::KeypointModel model(modelParams);
+  info.psiMin = modelParams.psiMin;
+  std::vector<double> obs, phi, updates;
+  bool first = true;
+  forGoodPoints(map, [&](map::MapPointId id, const map::MapPoint& p) {
+    obs.push_back(static_cast<double>(p.numObservations()));
+    info.observations += p.numObservations();
+    const Eigen::Vector3d x = map.worldPosition(id);
+    info.pointMin = first ? x : info.pointMin.cwiseMin(x);
+    info.pointMax = first ? x : info.pointMax.cwiseMax(x);
+    first = false;
+    if (p.landmarkState.empty()) return;
+    try {
+      const landmarks::KeypointState st = mapping::decodeKeypointState(p.landmarkState, "map point");
+      ++info.pointsWithModel;
+      const double r = model.inlierRatio(st);
+      phi.push_back(r);
+      if (model.isActive(st)) ++info.activePoints;
+      updates.push_back(static_cast<double>(st.depthUpdates));
+    } catch (const Error&) {
+      ++info.invalidModelStates;
+    }
+  });
+  for (const auto& [id, p] : map.mapPoints())
+    if (p.bad) ++info.badPoints;
+  info.observationsPerPoint = ValueStats::of(obs);
+  info.inlierRatio = ValueStats::of(phi);
+  info.depthUpdates = ValueStats::of(updates);
+  return info;
+}
+
+nlohmann::json MapInfo::toJson() const {
+  nlohmann::json j;
+  j["file"] = file.string();
+  j["file_bytes"] = fileBytes;
+  j["format_version"] = formatVersion;
+  j["camera"] = {{"fx", camera.fx}, {"fy", camera.fy}, {"cx", camera.cx}, {"cy", camera.cy},
+                 {"width", camera.width}, {"height", camera.height}};
+  j["keyframes"] = keyFrames;
+  j["map_points"] = mapPoints;
+  j["bad_points"] = badPoints;
+  j["observations"] = observations;
+  j["observations_per_point"] = observationsPerPoint.toJson();
+  j["keyframe_timestamps"] = {firstStamp, lastStamp};
+  j["keyframe_path_length"] = keyFramePathLength;
+  j["point_extent"] = {{"min", vec(pointMin)}, {"max", vec(pointMax)}};
+  nlohmann::json m;
+  m["points_with_model"] = pointsWithModel;
+  m["invalid_states"] = invalidModelStates;
+  if (pointsWithModel > 0) {
+    m["inlier_ratio"] = inlierRatio.toJson();
+    m["active_points"] = activePoints;
+    m["psi_min"] = psiMin;
+    m["depth_updates"] = depthUpdates.toJson();
+    m["parameters"] = "default keypoint-model parameters (the map does not store the run's [PointModel])";
+  }
+  j["point_model"] = m;
+  return j;
+}
+
+std::string MapInfo::toText() const {
+  std::ostringstream os;
+  os << "map:          " << file.string() << " (" << fileBytes << " bytes, format version " << formatVersion << ")\n";
+  os << "camera:       fx " << camera.fx << ", fy " << camera.fy << ", cx " << camera.cx << ", cy " << camera.cy
+     << ", " << camera.width << "x" << camera.height << "\n";
+  os << "keyframes:    " << keyFrames;
+  if (keyFrames > 0)
+    os << " (timestamps " << fmt(firstStamp, 6) << " .. " << fmt(lastStamp, 6) << ", path " << fmt(keyFramePathLength)
+       << " map units)";
+  os << "\n";
+  os << "map points:   " << mapPoints << " (" << badPoints << " bad), " << observations << " observations";
+  if (observationsPerPoint.count > 0)
+    os << " (per point mean " << fmt(observationsPerPoint.mean, 2) << ", median " << fmt(observationsPerPoint.median, 1)
+       << ", max " << fmt(observationsPerPoint.max, 0) << ")";
+  os << "\n";
+  if (observationsPerPoint.count > 0)
+    os << "point extent: x [" << fmt(pointMin.x()) << ", " << fmt(pointMax.x()) << "], y [" << fmt(pointMin.y()) << ", "
+       << fmt(pointMax.y()) << "], z [" << fmt(pointMin.z()) << ", " << fmt(pointMax.z()) << "]\n";
+  if (pointsWithModel == 0) {
+    os << "point model:  none (no point carries a probabilistic state)";
+    if (invalidModelStates > 0) os << "; " << invalidModelStates << " invalid states";
+    os << "\n";
+  } else {
+    os << "point model:  " << pointsWithModel << " points with a state";
+    if (invalidModelStates > 0) os << " (+" << invalidModelStates << " invalid)";
+    os << "; inlier ratio phi mean " << fmt(inlierRatio.mean) << ", median " << fmt(inlierRatio.median) << ", min "
+       << fmt(inlierRatio.min) << ", max " << fmt(inlierRatio.max) << "; active (phi >= " << psiMin << ") "
+       << activePoints << "; depth updates per point mean " << fmt(depthUpdates.mean, 2) << "\n";
+  }
+  return os.str();
+}
+
+// ------------------------------------------------------------------------------------------------ export
+
+Eigen::Vector3d mapUpDirection(const map::Map& map) {
+  require(map.numKeyFrames() > 0, "map", "no keyframe: no top view");
+  Eigen::Vector3d down = Eigen::Vector3d::Zero();
+  for (const auto& [id, kf] : map.keyFrames()) down += kf.T_world_cam().linear().col(1);
+  down /= static_cast<double>(map.numKeyFrames());
+  // The cameras agree on "down" (a mean of unit vectors longer than 0.5: within about 60 degrees).
+  if (down.norm() > 0.5) return -down.normalized();
+  // Else the normal of the plane of the keyframe centres, oriented against the mean camera y axis.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& [id, kf] : map.keyFrames()) mean += kf.T_world_cam().translation();
+  mean /= static_cast<double>(map.numKeyFrames());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& [id, kf] : map.keyFrames()) {
+    const Eigen::Vector3d d = kf.T_world_cam().translation() - mean;
+    cov += d * d.transpose();
+  }
+  if (map.numKeyFrames() < 3) return -map.keyFrames().begin()->second.T_world_cam().linear().col(1);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  Eigen::Vector3d n = es.eigenvectors().col(0);  // smallest eigenvalue
+  if (n.dot(down) > 0) n = -n;
+  return n.normalized();
+}
+
+std::string MapExportSummary::toText() const {
+  std::ostringstream os;
+  os << points << " points, " << keyFrames << " keyframes";
+  if (pointsOutsideView > 0) os << "; " << pointsOutsideView << " far points outside the top view";
+  os << (colouredByInlierRatio ? "; points coloured by inlier ratio" : "") << "; up = (" << fmt(up.x()) << ", "
+     << fmt(up.y()) << ", " << fmt(up.z()) << ")";
+  return os.str();
+}
+
+namespace {
+
+void writePly(std::ostream& os, const map::Map& map, const fs::path& source,
+              const std::vector<std::pair<map::MapPointId, double>>& phi) {
+  std::map<map::MapPointId, double> phiOf(phi.begin(), phi.end());
+  std::size_t nPoints = 0;
+  forGoodPoints(map, [&](map::MapPointId, const map::MapPoint&) { ++nPoints; });
+  const auto kfs = keyFramesByTime(map);
+  os << "ply\nformat ascii 1.0\n";
+  os << "comment slam-map export of " << source.filename().string() << ": " << nPoints << " map points, then "
+     << kfs.size() << " keyframe centres (red, timestamp order); map frame, map units\n";
+  if (!phi.empty()) os << "comment points coloured by inlier ratio phi (blue 0 .. red 1); grey = no model state\n";
+  os << "element vertex " << nPoints + kfs.size() << "\n";
+  os << "property double x\nproperty double y\nproperty double z\n";
+  os << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  os << "end_header\n";
+  os << std::setprecision(9);
+  forGoodPoints(map, [&](map::MapPointId id, const map::MapPoint&) {
+    const Eigen::Vector3d x = map.worldPosition(id);
+    int r = 160, g = 160, b = 160;
+    if (const auto it = phiOf.find(id); it != phiOf.end()) {
+      const cv::Scalar c = eval::colormapColor(it->second, 0.0, 1.0);  // BGR
+      r = static_cast<int>(c[2]);
+      g = static_cast<int>(c[1]);
+      b = static_cast<int>(c[0]);
+    }
+    os << x.x() << ' ' << x.y() << ' ' << x.z() << ' ' << r << ' ' << g << ' ' << b << '\n';
+  });
+  for (const map::KeyFrame* kf : kfs) {
+    const Eigen::Vector3d c = kf->T_world_cam().translation();
+    os << c.x() << ' ' << c.y() << ' ' << c.z() << " 255 0 0\n";
+  }
+}
+
+/// The 2nd and 98th percentiles of `v` (the extent of the bulk of the points, without far outliers).
+std::pair<double, double> robustRange(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const auto at = [&](double q) { return v[static_cast<std::size_t>(std::floor(q * static_cast<double>(v.size() - 1)))]; };
+  return {at(0.02), at(0.98)};
+}
+
+}  // namespace
+
+MapExportSummary exportMap(const MapExportOptions& o) {
+  require(!o.ply.empty() || !o.png.empty(), "slam-map export", "nothing to export: give --ply and/or --png");
+  require(o.pngWidth >= 200 && o.pngHeight >= 200, "slam-map export", "the PNG must be at least 200x200 pixels");
+  // Outputs are checked before the map is read (an impossible path fails at once) and committed together.
+  OutputSet outputs({o.map});
+  AtomicOutput* plyOut = o.ply.empty() ? nullptr : &outputs.add(o.ply);
+  AtomicOutput* pngOut = o.png.empty() ? nullptr : &outputs.add(o.png);
+  const map::Map map = map::loadMap(o.map);
+  require(map.numKeyFrames() > 0, o.map.string(), "map has no keyframe: nothing to export");
+
+  MapExportSummary sum;
+  const auto phi = inlierRatios(map);
+  sum.colouredByInlierRatio = !phi.empty();
+  forGoodPoints(map, [&](map::MapPointId, const map::MapPoint&) { ++sum.points; });
+  sum.keyFrames = map.numKeyFrames();
+  sum.up = mapUpDirection(map);
+
+  if (plyOut) writeOutputFile(*plyOut, [&](std::ostream& os) { writePly(os, map, o.map, phi); });
+
+  if (pngOut) {
+    // A right-handed view basis (e1, e2, up): e1 = the first keyframe's viewing direction in the ground plane.
+    const auto kfs = keyFramesByTime(map);
+    const Eigen::Vector3d up = sum.up;
+    Eigen::Vector3d e1 = kfs.front()->T_world_cam().linear().col(2);
+    e1 -= e1.dot(up) * up;
+    if (e1.norm() < 1e-6) e1 = up.unitOrthogonal();
+    e1.normalize();
+    const Eigen::Vector3d e2 = up.cross(e1);
+    std::vector<double> kx, ky;
+    for (const map::KeyFrame* kf : kfs) {
+      const Eigen::Vector3d c = kf->T_world_cam().translation();
+      kx.push_back(c.dot(e1));
+      ky.push_back(c.dot(e2));
+    }
+    std::map<map::MapPointId, double> phiOf(phi.begin(), phi.end());
+    std::vector<double> px, py, pv, gx, gy;
+    std::vector<bool> hasPhi;
+    forGoodPoints(map, [&](map::MapPointId id, const map::MapPoint&) {
+      const Eigen::Vector3d x = map.worldPosition(id);
+      px.push_back(x.dot(e1));
+      py.push_back(x.dot(e2));
+      const auto it = phiOf.find(id);
+      hasPhi.push_back(it != phiOf.end());
+      pv.push_back(it != phiOf.end() ? it->second : 0.0);
+    });
+    // View: the bulk of the points (2-98 %) and every keyframe, with a margin; far outliers are left out.
+    double xlo = *std::min_element(kx.begin(), kx.end()), xhi = *std::max_element(kx.begin(), kx.end());
+    double ylo = *std::min_element(ky.begin(), ky.end()), yhi = *std::max_element(ky.begin(), ky.end());
+    if (!px.empty()) {
+      const auto [ax, bx] = robustRange(px);
+      const auto [ay, by] = robustRange(py);
+      xlo = std::min(xlo, ax), xhi = std::max(xhi, bx), ylo = std::min(ylo, ay), yhi = std::max(yhi, by);
+    }
+    const double margin = 0.05 * std::max({xhi - xlo, yhi - ylo, 1e-3});
+    xlo -= margin, xhi += margin, ylo -= margin, yhi += margin;
+    std::vector<double> cx, cy, cv;
+    for (std::size_t i = 0; i < px.size(); ++i) {
+      if (px[i] < xlo || px[i] > xhi || py[i] < ylo || py[i] > yhi) {
+        ++sum.pointsOutsideView;
+        continue;
+      }
+      if (hasPhi[i]) {
+        cx.push_back(px[i]);
+        cy.push_back(py[i]);
+        cv.push_back(pv[i]);
+      } else {
+        gx.push_back(px[i]);
+        gy.push_back(py[i]);
+      }
+    }
+    eval::Plot plot("Top view of " + o.map.filename().string() + ": " + std::to_string(sum.points) + " points, " +
+                        std::to_string(sum.keyFrames) + " keyframes",
+                    "[map units]", "[map units]");
+    plot.style().width = o.pngWidth;
+    plot.style().height = o.pngHeight;
+    plot.style().equalAspect = true;
+    plot.setXRange(xlo, xhi);
+    plot.setYRange(ylo, yhi);
+    if (!gx.empty()) plot.addScatter(gx, gy, sum.colouredByInlierRatio ? "points without model state" : "map points",
+                                     eval::colors::grey(), 1);
+    if (!cx.empty()) {
+      plot.addColoredScatter(cx, cy, cv, "map points", "inlier ratio phi", 1);
+      plot.setColorRange(0.0, 1.0);
+    }
+    plot.addLine(kx, ky, "keyframe trajectory", eval::colors::red(), 2);
+    plot.addScatter({kx.front()}, {ky.front()}, "first keyframe", eval::colors::green(), 5);
+    plot.save(pngOut->tempPath());
+  }
+  outputs.commit();
+  return sum;
+}
+
+}  // namespace pslam::apps

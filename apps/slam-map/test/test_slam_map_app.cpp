@@ -1,0 +1,184 @@
+// unit: slam-map's app class on small synthetic maps (libs/map/test/SyntheticMap.h): info counts and point-model
+// statistics, the top-view "up", the PLY and PNG exports, and bad inputs (nothing written).
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "SyntheticMap.h"
+#include "pslam/apps/SlamMapApp.h"
+#include "pslam/core/Error.h"
+#include "pslam/landmarks/KeypointModel.h"
+#include "pslam/map/MapIO.h"
+#include "pslam/mapping/LocalMapper.h"
+
+namespace fs = std::filesystem;
+using namespace pslam;
+
+namespace {
+struct TempDir {
+  fs::path path = fs::temp_directory_path() / ("pslam_slam_map_app_" + std::to_string(::getpid()));
+  TempDir() { fs::create_directories(path); }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+map::Map syntheticMap() {
+  map::testing::SyntheticScene scene;
+  return map::testing::buildSyntheticMap(6, 150, scene);
+}
+
+/// Gives every other good point a keypoint-model state with inlier counts (a, b).
+std::size_t addModelStates(map::Map& m, double a, double b) {
+  std::size_t n = 0, k = 0;
+  for (const auto& [id, p] : m.mapPoints()) {
+    if (k++ % 2) continue;
+    landmarks::KeypointState st;
+    st.mu = 0.2;
+    st.sigma2 = 0.01;
+    st.aObs = a;
+    st.bObs = b;
+    st.semanticUpdates = 1;
+    st.depthUpdates = 3;
+    m.mutableMapPoint(id).landmarkState = mapping::encodeKeypointState(st);
+    ++n;
+  }
+  return n;
+}
+
+std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::size_t countLines(const fs::path& p) {
+  std::ifstream in(p);
+  std::size_t n = 0;
+  for (std::string line; std::getline(in, line);) ++n;
+  return n;
+}
+}  // namespace
+
+TEST(SlamMapApp, InfoCountsTheMapAndItsFile) {
+  TempDir tmp;
+  const map::Map m = syntheticMap();
+  const fs::path file = tmp.path / "m.slammap";
+  map::saveMap(m, file);
+  const apps::MapInfo info = apps::mapInfo(file);
+  EXPECT_EQ(info.keyFrames, 6u);
+  EXPECT_EQ(info.mapPoints, m.numMapPoints());
+  EXPECT_EQ(info.fileBytes, fs::file_size(file));
+  EXPECT_EQ(info.formatVersion, map::CSlamMapArchive::kFormatVersion);
+  EXPECT_TRUE(info.camera == map::testing::testCamera());
+  std::size_t obs = 0;
+  for (const auto& [id, p] : m.mapPoints()) obs += p.numObservations();
+  EXPECT_EQ(info.observations, obs);
+  // Keyframes 0.3 m apart along x (plus 0.02 in y): five steps.
+  EXPECT_NEAR(info.keyFramePathLength, 5 * std::hypot(0.3, 0.02), 1e-9);
+  EXPECT_EQ(info.pointsWithModel, 0u);
+  const nlohmann::json j = info.toJson();
+  EXPECT_EQ(j["keyframes"], 6);
+  EXPECT_EQ(j["file_bytes"], info.fileBytes);
+  EXPECT_EQ(j["point_model"]["points_with_model"], 0);
+  EXPECT_NE(info.toText().find("point model:  none"), std::string::npos) << info.toText();
+}
+
+TEST(SlamMapApp, InfoSummarizesThePointModel) {
+  map::Map m = syntheticMap();
+  // a = 30, b = 10 without semantic prior mass beyond the static class: phi is the model's, not a / (a + b).
+  const std::size_t withState = addModelStates(m, 30.0, 10.0);
+  const apps::MapInfo info = apps::mapInfo(m);
+  EXPECT_EQ(info.pointsWithModel, withState);
+  EXPECT_EQ(info.invalidModelStates, 0u);
+  landmarks::KeypointState st;
+  st.mu = 0.2;
+  st.sigma2 = 0.01;
+  st.aObs = 30;
+  st.bObs = 10;
+  st.semanticUpdates = 1;
+  st.depthUpdates = 3;
+  const double phi = landmarks::KeypointModel(landmarks::KeypointModelParams{}).inlierRatio(st);
+  EXPECT_NEAR(info.inlierRatio.mean, phi, 1e-12);
+  EXPECT_NEAR(info.inlierRatio.median, phi, 1e-12);
+  EXPECT_EQ(info.activePoints, phi >= 0.6 ? withState : 0u);
+  EXPECT_NEAR(info.depthUpdates.mean, 3.0, 1e-12);
+  EXPECT_EQ(apps::inlierRatios(m).size(), withState);
+  // A state of the wrong length is counted, not fatal.
+  m.mutableMapPoint(m.mapPoints().rbegin()->first).landmarkState = {1.0, 2.0};
+  EXPECT_EQ(apps::mapInfo(m).invalidModelStates, 1u);
+}
+
+TEST(SlamMapApp, UpIsAgainstTheCamerasYAxis) {
+  // The synthetic keyframes turn about the camera y axis only: world "up" is -y.
+  const Eigen::Vector3d up = apps::mapUpDirection(syntheticMap());
+  EXPECT_NEAR(up.y(), -1.0, 1e-9) << up.transpose();
+}
+
+TEST(SlamMapApp, ExportsPlyAndPng) {
+  TempDir tmp;
+  map::Map m = syntheticMap();
+  addModelStates(m, 30.0, 10.0);
+  const fs::path file = tmp.path / "m.slammap";
+  map::saveMap(m, file);
+  apps::MapExportOptions o;
+  o.map = file;
+  o.ply = tmp.path / "out" / "m.ply";
+  o.png = tmp.path / "out" / "top.png";
+  o.pngWidth = 640;
+  o.pngHeight = 480;
+  const apps::MapExportSummary s = apps::exportMap(o);
+  EXPECT_EQ(s.points, m.numMapPoints());
+  EXPECT_EQ(s.keyFrames, 6u);
+  EXPECT_TRUE(s.colouredByInlierRatio);
+  // Header (11 lines with the two comments) + one vertex line per point and keyframe.
+  std::ifstream in(o.ply);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "ply");
+  EXPECT_EQ(countLines(o.ply), 12 + m.numMapPoints() + 6);
+  std::stringstream all;
+  all << std::ifstream(o.ply).rdbuf();
+  EXPECT_NE(all.str().find("element vertex " + std::to_string(m.numMapPoints() + 6)), std::string::npos);
+  const cv::Mat png = cv::imread(o.png.string());
+  ASSERT_FALSE(png.empty());
+  EXPECT_EQ(png.cols, 640);
+  EXPECT_EQ(png.rows, 480);
+  // Only the requested outputs, no temporaries left.
+  std::size_t files = 0;
+  for (const auto& e : fs::directory_iterator(tmp.path / "out")) files += e.is_regular_file();
+  EXPECT_EQ(files, 2u);
+}
+
+TEST(SlamMapApp, BadInputsNameTheFileAndWriteNothing) {
+  TempDir tmp;
+  apps::MapExportOptions o;
+  o.map = tmp.path / "missing.slammap";
+  o.ply = tmp.path / "out" / "m.ply";
+  EXPECT_NE(errorOf([&] { apps::exportMap(o); }).find("missing.slammap"), std::string::npos);
+  EXPECT_FALSE(fs::exists(o.ply));
+  EXPECT_NE(errorOf([&] { apps::mapInfo(o.map); }).find("missing.slammap: map file not found"), std::string::npos);
+  // Corrupt: not gzip.
+  const fs::path corrupt = tmp.path / "corrupt.slammap";
+  std::ofstream(corrupt) << "not a map";
+  o.map = corrupt;
+  EXPECT_NE(errorOf([&] { apps::exportMap(o); }).find("corrupt.slammap"), std::string::npos);
+  EXPECT_FALSE(fs::exists(o.ply));
+  // Nothing to export; the map as its own output.
+  o.ply.clear();
+  EXPECT_NE(errorOf([&] { apps::exportMap(o); }).find("nothing to export"), std::string::npos);
+  map::saveMap(syntheticMap(), tmp.path / "m.slammap");
+  o.map = tmp.path / "m.slammap";
+  o.ply = o.map;
+  EXPECT_NE(errorOf([&] { apps::exportMap(o); }).find("input"), std::string::npos);
+  EXPECT_NO_THROW(map::loadMap(o.map));  // untouched
+}

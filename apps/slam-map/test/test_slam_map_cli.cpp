@@ -1,0 +1,91 @@
+// e2e: runs the slam-map executable as a user would (info text and JSON, export, one-line errors, exit codes).
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "SyntheticMap.h"
+#include "pslam/map/MapIO.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+const fs::path kExe = fs::path(PRIORSLAM_BINARY_DIR) / "bin" / "slam-map";
+
+struct CliRun {
+  int exitCode;
+  std::string out, err;
+};
+
+CliRun runCli(const std::string& args, const fs::path& dir) {
+  const fs::path errFile = dir / "stderr.txt";
+  const std::string cmd = kExe.string() + " " + args + " 2>" + errFile.string();
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(cmd.c_str(), "r"), pclose);
+  std::string out;
+  std::array<char, 4096> buf{};
+  while (fgets(buf.data(), buf.size(), pipe.get())) out += buf.data();
+  const int status = pclose(pipe.release());
+  std::string err;
+  if (FILE* f = std::fopen(errFile.c_str(), "r")) {
+    while (fgets(buf.data(), buf.size(), f)) err += buf.data();
+    std::fclose(f);
+  }
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err};
+}
+
+struct TempDir {
+  fs::path path = fs::temp_directory_path() / ("pslam_slam_map_cli_" + std::to_string(::getpid()));
+  TempDir() { fs::create_directories(path); }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+}  // namespace
+
+TEST(SlamMapCli, InfoAndExport) {
+  ASSERT_TRUE(fs::exists(kExe)) << kExe;
+  TempDir tmp;
+  pslam::map::testing::SyntheticScene scene;
+  const pslam::map::Map m = pslam::map::testing::buildSyntheticMap(5, 120, scene);
+  const fs::path file = tmp.path / "m.slammap";
+  pslam::map::saveMap(m, file);
+
+  const CliRun text = runCli("info " + file.string(), tmp.path);
+  EXPECT_EQ(text.exitCode, 0) << text.err;
+  EXPECT_NE(text.out.find("keyframes:    5"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("format version 0"), std::string::npos) << text.out;
+
+  const CliRun json = runCli("info " + file.string() + " --json", tmp.path);
+  ASSERT_EQ(json.exitCode, 0) << json.err;
+  const nlohmann::json j = nlohmann::json::parse(json.out);
+  EXPECT_EQ(j["keyframes"], 5);
+  EXPECT_EQ(j["map_points"], m.numMapPoints());
+  EXPECT_EQ(j["file_bytes"], fs::file_size(file));
+  EXPECT_EQ(j["camera"]["width"], 640);
+
+  const CliRun ex = runCli("export " + file.string() + " --ply " + (tmp.path / "m.ply").string() + " --png " +
+                               (tmp.path / "top.png").string(), tmp.path);
+  EXPECT_EQ(ex.exitCode, 0) << ex.err;
+  EXPECT_TRUE(fs::is_regular_file(tmp.path / "m.ply"));
+  EXPECT_TRUE(fs::is_regular_file(tmp.path / "top.png"));
+}
+
+TEST(SlamMapCli, BadInputIsOneErrorLineAndExitCodeOne) {
+  TempDir tmp;
+  const CliRun missing = runCli("info /nonexistent/x.slammap", tmp.path);
+  EXPECT_EQ(missing.exitCode, 1);
+  EXPECT_EQ(missing.err, "slam-map: error: /nonexistent/x.slammap: map file not found\n");
+  const CliRun nothing = runCli("export /nonexistent/x.slammap", tmp.path);
+  EXPECT_EQ(nothing.exitCode, 1);
+  EXPECT_EQ(std::count(nothing.err.begin(), nothing.err.end(), '\n'), 1) << nothing.err;
+  EXPECT_NE(nothing.err.find("nothing to export"), std::string::npos) << nothing.err;
+}
