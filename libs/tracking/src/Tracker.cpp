@@ -106,7 +106,13 @@ int Tracker::updatePointModels(const Frame& frame) {
 }
 
 bool Tracker::poseSupported(int keypointInliers, int minKeypointInliers) const {
-  return keypointInliers >= minKeypointInliers || (directFactors_ > 0 && directInliers_ >= direct_->minInliers());
+  if (keypointInliers >= minKeypointInliers) return true;
+  if (directFactors_ == 0) return false;
+  // Keypoint and direct inliers each count as their share of what would carry the pose alone: 28 of 30
+  // keypoints and a handful of direct points together are as good a pose as 30 keypoints.
+  return static_cast<double>(keypointInliers) / minKeypointInliers +
+             static_cast<double>(directInliers_) / direct_->minInliers() >=
+         1.0;
 }
 
 int Tracker::optimizeFramePose(Frame& frame) {

@@ -149,8 +149,8 @@ class Tracker {
   /// Pose optimization of `frame` against its matches (and, in the tracking attempts, the direct points of the
   /// DirectPointSource, coarse to fine); outliers are unmatched afterwards. Returns the keypoint inliers.
   int optimizeFramePose(Frame& frame);
-  /// Did the last optimizeFramePose succeed: `keypointInliers` >= `minKeypointInliers`, or enough direct
-  /// inliers (DirectPointSource::minInliers) when direct points took part.
+  /// Did the last optimizeFramePose succeed: `keypointInliers` >= `minKeypointInliers`, or, when direct points
+  /// took part, keypoint inliers / minKeypointInliers + direct inliers / DirectPointSource::minInliers >= 1.
   bool poseSupported(int keypointInliers, int minKeypointInliers) const;
   bool trackWithMotionModel(Frame& frame);
   bool trackReferenceKeyFrame(Frame& frame);
