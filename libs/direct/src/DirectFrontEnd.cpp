@@ -36,15 +36,17 @@ std::vector<std::size_t> evenSubset(std::size_t n, std::size_t cap) {
   return out;
 }
 
+/// Median (upper middle element) of a non-empty vector, which is reordered.
+double medianOf(std::vector<double>& v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
 /// Median and median absolute deviation of `v` (reordered).
 std::pair<double, double> medianAndMad(std::vector<double>& v) {
-  auto nth = [](std::vector<double>& x) {
-    std::nth_element(x.begin(), x.begin() + static_cast<long>(x.size() / 2), x.end());
-    return x[x.size() / 2];
-  };
-  const double med = nth(v);
+  const double med = medianOf(v);
   for (double& x : v) x = std::abs(x - med);
-  return {med, nth(v)};
+  return {med, medianOf(v)};
 }
 
 /// Sum over the pattern of the squared difference of the exposure-normalized intensities (eq. 3.5): host
@@ -353,21 +355,52 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
   if (it == hosts_.end() || it->second.grey.empty() || !map.hasKeyFrame(kfId)) return report;
   DirectHost& host = it->second;
   const map::KeyFrame& kf = map.keyFrame(kfId);
-  // The partner: the best covisible keyframe with an image (the other keyframe of a new map), else the most
-  // recent other one.
+  // Depth prior of the expected positions: the host's map points (median per cell of an 8 x 6 grid, the
+  // keyframe's median where a cell has none).
+  constexpr int kCellsX = 8, kCellsY = 6;
+  std::vector<std::vector<double>> cellDepths(kCellsX * kCellsY);
+  std::vector<double> allDepths;
+  auto cellOf = [&](const Eigen::Vector2d& px) {
+    const int cx = std::clamp(static_cast<int>(px.x() * kCellsX / host.grey.cols), 0, kCellsX - 1);
+    const int cy = std::clamp(static_cast<int>(px.y() * kCellsY / host.grey.rows), 0, kCellsY - 1);
+    return cy * kCellsX + cx;
+  };
+  for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i) {
+    const map::MapPointId id = kf.mapPointIds[i];
+    if (id == map::kNoMapPoint || !map.hasMapPoint(id) || map.mapPoint(id).bad) continue;
+    const double z = (kf.T_cam_world * map.worldPosition(id)).z();
+    if (z <= 0.0) continue;
+    cellDepths[static_cast<std::size_t>(cellOf(kf.pixel(i)))].push_back(z);
+    allDepths.push_back(z);
+  }
+  if (allDepths.empty()) return report;
+  const double globalDepth = medianOf(allDepths);
+
+  // The partner: the most recent keyframes with an image first (the least change of appearance for the optical
+  // flow), then the best covisible ones; the first whose baseline is at least minPartnerBaseline of the scene
+  // depth (a keyframe inserted one frame after the last one has too little parallax to triangulate), else the
+  // candidate with the longest baseline.
+  std::vector<map::KeyFrameId> candidates;
+  for (auto h = hosts_.rbegin(); h != hosts_.rend() && candidates.size() < 3; ++h)
+    if (h->first != kfId && map.hasKeyFrame(h->first) && !h->second.grey.empty()) candidates.push_back(h->first);
   for (map::KeyFrameId n : map.bestCovisibleKeyFrames(kfId, 10)) {
     auto h = hosts_.find(n);
-    if (h != hosts_.end() && !h->second.grey.empty()) {
-      report.partner = n;
+    if (h != hosts_.end() && !h->second.grey.empty() &&
+        std::find(candidates.begin(), candidates.end(), n) == candidates.end())
+      candidates.push_back(n);
+  }
+  double longest = -1.0;
+  for (map::KeyFrameId c : candidates) {
+    const double ratio = (map.keyFrame(c).cameraCenter() - kf.cameraCenter()).norm() / globalDepth;
+    if (ratio >= params_.minPartnerBaseline) {
+      report.partner = c;
       break;
     }
+    if (ratio > longest) {
+      longest = ratio;
+      report.partner = c;
+    }
   }
-  if (report.partner == map::kNoKeyFrame)
-    for (auto h = hosts_.rbegin(); h != hosts_.rend(); ++h)
-      if (h->first != kfId && map.hasKeyFrame(h->first) && !h->second.grey.empty()) {
-        report.partner = h->first;
-        break;
-      }
   if (report.partner == map::kNoKeyFrame) return report;
   DirectHost& partner = hosts_.at(report.partner);
   const map::KeyFrame& pkf = map.keyFrame(report.partner);
@@ -396,33 +429,9 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
   report.selected = static_cast<int>(pixels.size());
   if (pixels.empty()) return report;
 
-  // Expected position in the partner: the depth of the host's map points around the pixel (median per cell of
-  // an 8 x 6 grid, the keyframe's median where a cell has none).
-  constexpr int kCellsX = 8, kCellsY = 6;
-  std::vector<std::vector<double>> cellDepths(kCellsX * kCellsY);
-  std::vector<double> allDepths;
-  auto cellOf = [&](const Eigen::Vector2d& px) {
-    const int cx = std::clamp(static_cast<int>(px.x() * kCellsX / host.grey.cols), 0, kCellsX - 1);
-    const int cy = std::clamp(static_cast<int>(px.y() * kCellsY / host.grey.rows), 0, kCellsY - 1);
-    return cy * kCellsX + cx;
-  };
-  for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i) {
-    const map::MapPointId id = kf.mapPointIds[i];
-    if (id == map::kNoMapPoint || !map.hasMapPoint(id) || map.mapPoint(id).bad) continue;
-    const double z = (kf.T_cam_world * map.worldPosition(id)).z();
-    if (z <= 0.0) continue;
-    cellDepths[static_cast<std::size_t>(cellOf(kf.pixel(i)))].push_back(z);
-    allDepths.push_back(z);
-  }
-  if (allDepths.empty()) return report;
-  auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  const double globalDepth = median(allDepths);
   std::vector<double> cellDepth(cellDepths.size(), globalDepth);
   for (std::size_t c = 0; c < cellDepths.size(); ++c)
-    if (cellDepths[c].size() >= 3) cellDepth[c] = median(cellDepths[c]);
+    if (cellDepths[c].size() >= 3) cellDepth[c] = medianOf(cellDepths[c]);
 
   const Eigen::Isometry3d T_partner_host = pkf.T_cam_world * kf.T_world_cam();
   std::vector<cv::Point2f> from, guesses;

@@ -120,6 +120,7 @@ struct System::Impl {
                             {"direct_selected", d.selected},
                             {"direct_tracked", d.tracked},
                             {"direct_created", d.created},
+                            {"direct_partner", d.partner == map::kNoKeyFrame ? -1 : static_cast<long long>(d.partner)},
                             {"keyframe", kf},
                             {"new_points", r.newPoints},
                             {"culled_points", r.culledPoints},

@@ -66,6 +66,7 @@ struct DirectFeaturesParams {
   double maxForwardBackward = 1.0;
   double maxParallaxCos = 0.9998;   ///< rays closer than this are not triangulated (ORB-SLAM's)
   double maxReprojection = 2.0;     ///< pixels, in both views
+  double minPartnerBaseline = 0.02; ///< partner keyframe: baseline / median scene depth at least this
   // Measurement in tracked frames
   int measureWindow = 9;
   int measureLevels = 1;
@@ -101,6 +102,7 @@ struct DirectFeaturesParams {
     PSLAM_FIELD(v, maxForwardBackward, greaterThan(0), "forward-backward check of new points (px)");
     PSLAM_FIELD(v, maxParallaxCos, inOpen(0, 1), "new points need rays less parallel than this");
     PSLAM_FIELD(v, maxReprojection, greaterThan(0), "reprojection error of new points in both views (px)");
+    PSLAM_FIELD(v, minPartnerBaseline, atLeast(0), "partner keyframe: baseline / median depth at least this");
     PSLAM_FIELD(v, measureWindow, satisfies([](int w) { return w >= 3 && w % 2 == 1; }, "must be odd and >= 3"),
                 "optical-flow window of the per-frame measurements (px)");
     PSLAM_FIELD(v, measureLevels, inClosed(0, 6), "optical-flow pyramid levels of the measurements");
