@@ -152,8 +152,11 @@ TEST(TrackerSeams, EveryMatchOfATrackedFrameUpdatesItsPointOnce) {
   EXPECT_EQ(*learner->malformed, 0);
   EXPECT_GT(odd, 50) << "points the policy refuses are measured too";
   // Every match left in the frame was measured.
-  for (map::MapPointId id : f.mapPointIds)
-    if (id != map::kNoMapPoint) EXPECT_EQ(learner->counts->count(id), 1u) << "matched point " << id << " not measured";
+  for (map::MapPointId id : f.mapPointIds) {
+    if (id != map::kNoMapPoint) {
+      EXPECT_EQ(learner->counts->count(id), 1u) << "matched point " << id << " not measured";
+    }
+  }
   // Localization only: nothing is recorded, nothing updated.
   World w2;
   tracking::Frame f2 = makeWorldAndFrame(w2);
