@@ -146,52 +146,67 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
   struct FactorResidual {
     std::size_t factor;
     ceres::CostFunction* cost;
-    std::vector<double*> blocks;  ///< original blocks
+  };
+  struct OwnBlock {
+    double* block;        ///< owned by the factor
+    int size;
+    std::size_t factor;   ///< first factor using it (its manifold and fixedness)
+    std::size_t index;    ///< landmark block index within that factor
   };
   std::vector<FactorResidual> factorResiduals;
-  std::vector<std::pair<double*, int>> shared, landmarks;  ///< factor-owned blocks (original, size), first use
+  std::vector<OwnBlock> shared, landmarks;  ///< distinct factor-owned blocks, in first-use order
   std::set<double*> seenShared, seenLandmark;
   for (std::size_t i = 0; i < problem.factors.size(); ++i) {
     if (factorExcluded[i]) continue;
     const BAFactor& f = *problem.factors[i];
-    FactorResidual r{i, f.newCostFunction(), factorBlocks(f, state.poses)};
+    FactorResidual r{i, f.newCostFunction()};
     const std::vector<int>& sizes = r.cost->parameter_block_sizes();
-    const std::size_t nPoses = f.keyframes().size(), nLandmark = f.landmarkBlocks().size();
-    for (std::size_t b = nPoses; b < r.blocks.size(); ++b) {
-      const bool isLandmark = b < nPoses + nLandmark;
-      if ((isLandmark ? seenLandmark : seenShared).insert(r.blocks[b]).second)
-        (isLandmark ? landmarks : shared).emplace_back(r.blocks[b], sizes.at(b));
-    }
-    factorResiduals.push_back(std::move(r));
+    const std::size_t nPoses = f.keyframes().size();
+    const std::vector<double*> landmark = f.landmarkBlocks();
+    for (std::size_t b = 0; b < landmark.size(); ++b)
+      if (seenLandmark.insert(landmark[b]).second) landmarks.push_back({landmark[b], sizes.at(nPoses + b), i, b});
+    const std::vector<double*> sharedBlocks = f.sharedBlocks();
+    for (std::size_t b = 0; b < sharedBlocks.size(); ++b)
+      if (seenShared.insert(sharedBlocks[b]).second)
+        shared.push_back({sharedBlocks[b], sizes.at(nPoses + landmark.size() + b), i, b});
+    factorResiduals.push_back(r);
   }
-  std::vector<std::pair<double*, int>> layout;
+
+  // The contiguous copy and where each block lives in it.
+  std::vector<std::pair<double*, int>> layout;  ///< (original block, size), in storage order
   for (auto& [id, pose] : state.poses) layout.emplace_back(pose, kPoseSize);
-  layout.insert(layout.end(), shared.begin(), shared.end());
+  for (const OwnBlock& b : shared) layout.emplace_back(b.block, b.size);
   for (auto& [id, rho] : state.rhos) layout.emplace_back(rho, 1);
-  layout.insert(layout.end(), landmarks.begin(), landmarks.end());
+  for (const OwnBlock& b : landmarks) layout.emplace_back(b.block, b.size);
+  std::vector<std::size_t> offsets(layout.size());
   std::size_t total = 0;
-  for (const auto& [block, size] : layout) total += static_cast<std::size_t>(size);
-  std::vector<double> storage(total);
-  std::map<const double*, double*> local;
-  std::size_t offset = 0;
-  for (const auto& [block, size] : layout) {
-    std::copy(block, block + size, storage.data() + offset);
-    local[block] = storage.data() + offset;
-    offset += static_cast<std::size_t>(size);
+  for (std::size_t k = 0; k < layout.size(); ++k) {
+    offsets[k] = total;
+    total += static_cast<std::size_t>(layout[k].second);
   }
-  auto L = [&local](const double* block) { return local.at(block); };
+  std::vector<double> storage(total);
+  for (std::size_t k = 0; k < layout.size(); ++k)
+    std::copy(layout[k].first, layout[k].first + layout[k].second, storage.data() + offsets[k]);
   // Written back on every exit (the values are unchanged when nothing is solved).
   struct WriteBack {
     const std::vector<std::pair<double*, int>>& layout;
-    const std::map<const double*, double*>& local;
+    const std::vector<std::size_t>& offsets;
+    const std::vector<double>& storage;
     ~WriteBack() {
-      for (const auto& [block, size] : layout) std::copy(local.at(block), local.at(block) + size, block);
+      for (std::size_t k = 0; k < layout.size(); ++k)
+        std::copy(storage.data() + offsets[k], storage.data() + offsets[k] + layout[k].second, layout[k].first);
     }
-  } writeBack{layout, local};
+  } writeBack{layout, offsets, storage};
+  std::size_t k = 0;
+  std::map<KeyFrameId, double*> poses;  ///< id -> local block (the same lookups as the State's maps)
+  for (auto& [id, pose] : state.poses) poses[id] = storage.data() + offsets[k++];
+  std::map<const double*, double*> ownLocal;  ///< factor-owned block -> local block
+  for (const OwnBlock& b : shared) ownLocal[b.block] = storage.data() + offsets[k++];
+  std::map<MapPointId, double*> rhos;
+  for (auto& [id, rho] : state.rhos) rhos[id] = storage.data() + offsets[k++];
+  for (const OwnBlock& b : landmarks) ownLocal[b.block] = storage.data() + offsets[k++];
 
   ceres::Problem ceresProblem(problemOptions);
-  std::vector<double*> factorLandmarks;  ///< distinct local landmark blocks of the factors, in first-use order
-  std::vector<double*> factorShared;     ///< distinct local shared blocks of the factors
   residualBlocks = 0;
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     if (excluded[i]) continue;
@@ -200,11 +215,11 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
     if (o.keyframe == p.anchor) continue;  // constant residual (see InverseDepthReprojectionError.h)
     ceresProblem.AddResidualBlock(
         new InverseDepthReprojectionCost(p.bearing, o.pixel, o.invSigma2, problem.keyframes.at(o.keyframe).camera),
-        robust ? &huber : nullptr, L(state.poses.at(p.anchor)), L(state.poses.at(o.keyframe)), L(state.rhos.at(o.point)));
+        robust ? &huber : nullptr, poses.at(p.anchor), poses.at(o.keyframe), rhos.at(o.point));
     ++residualBlocks;
   }
   std::vector<std::unique_ptr<ceres::HuberLoss>> factorLosses;
-  for (FactorResidual& r : factorResiduals) {
+  for (const FactorResidual& r : factorResiduals) {
     const BAFactor& f = *problem.factors[r.factor];
     ceres::LossFunction* loss = nullptr;
     if (robust && f.huberDelta() > 0.0) {
@@ -212,41 +227,36 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
       loss = factorLosses.back().get();
     }
     std::vector<double*> blocks;
-    for (double* b : r.blocks) blocks.push_back(L(b));
+    for (KeyFrameId kf : f.keyframes()) blocks.push_back(poses.at(kf));
+    for (double* b : f.landmarkBlocks()) blocks.push_back(ownLocal.at(b));
+    for (double* b : f.sharedBlocks()) blocks.push_back(ownLocal.at(b));
     ceresProblem.AddResidualBlock(r.cost, loss, blocks);
-    const std::vector<double*> landmark = f.landmarkBlocks();
-    for (std::size_t b = 0; b < landmark.size(); ++b) {
-      double* block = L(landmark[b]);
-      if (std::find(factorLandmarks.begin(), factorLandmarks.end(), block) != factorLandmarks.end()) continue;
-      factorLandmarks.push_back(block);
-      if (ceres::Manifold* m = f.newLandmarkManifold(b)) ceresProblem.SetManifold(block, m);
-      if (f.landmarkFixed()) ceresProblem.SetParameterBlockConstant(block);
-    }
-    for (double* sharedBlock : f.sharedBlocks())
-      if (std::find(factorShared.begin(), factorShared.end(), L(sharedBlock)) == factorShared.end())
-        factorShared.push_back(L(sharedBlock));
     ++residualBlocks;
+  }
+  for (const OwnBlock& b : landmarks) {
+    const BAFactor& f = *problem.factors[b.factor];
+    double* block = ownLocal.at(b.block);
+    if (ceres::Manifold* m = f.newLandmarkManifold(b.index)) ceresProblem.SetManifold(block, m);
+    if (f.landmarkFixed()) ceresProblem.SetParameterBlockConstant(block);
   }
   ceres::Solver::Summary summary;
   if (residualBlocks == 0) return summary;
 
   // Schur ordering: every inverse depth in the first (eliminated) group, poses in the second.
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  for (auto& [id, poseBlock] : state.poses) {
-    double* pose = L(poseBlock);
+  for (auto& [id, pose] : poses) {
     if (!ceresProblem.HasParameterBlock(pose)) continue;
     ceresProblem.SetManifold(pose, new PoseManifold);
     if (keyframeFixed.at(id)) ceresProblem.SetParameterBlockConstant(pose);
     ordering->AddElementToGroup(pose, 1);
   }
-  for (auto& [id, rhoBlock] : state.rhos) {
-    double* rho = L(rhoBlock);
+  for (auto& [id, rho] : rhos) {
     if (!ceresProblem.HasParameterBlock(rho)) continue;
     if (problem.points.at(id).fixed) ceresProblem.SetParameterBlockConstant(rho);
     ordering->AddElementToGroup(rho, 0);
   }
-  for (double* block : factorLandmarks) ordering->AddElementToGroup(block, 0);
-  for (double* block : factorShared) ordering->AddElementToGroup(block, 1);  // with the poses, not eliminated
+  for (const OwnBlock& b : landmarks) ordering->AddElementToGroup(ownLocal.at(b.block), 0);
+  for (const OwnBlock& b : shared) ordering->AddElementToGroup(ownLocal.at(b.block), 1);  // with the poses
 
   ceres::Solver::Options options;
   options.linear_solver_type = params.linearSolver == "dense_schur" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
