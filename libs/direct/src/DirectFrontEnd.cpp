@@ -13,6 +13,7 @@
 #include "pslam/geometry/Triangulation.h"
 #include "pslam/landmarks/MatchingAccuracy.h"
 #include "pslam/landmarks/MeasurementVariance.h"
+#include "pslam/mapping/MapPointModelPolicy.h"
 #include "pslam/optimize/PhotometricPoseFactor.h"
 
 namespace pslam::direct {
@@ -72,7 +73,6 @@ DirectFrontEnd::DirectFrontEnd(const DirectFeaturesParams& params, const landmar
                                const geometry::PinholeCamera& camera, double depthPixelNoise)
     : params_(params),
       pointModel_(pointModel),
-      camera_(camera),
       depthPixelNoise_(depthPixelNoise),
       keypointModel_(pointModel.keypoint) {
   params_.check();
@@ -167,7 +167,6 @@ std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>> DirectFrontE
   lastFactors_.clear();
   lastInView_.clear();
   lastActive_ = lastInactive_ = lastReferenceInView_ = lastReferenceActive_ = 0;
-  lastReference_ = reference;
   if (hosts_.empty()) return {};
   prepareFrame(frame);
   const cv::Mat& level0 = framePyramid_->level(0);
@@ -491,8 +490,9 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
     // accuracy of the pair (eq. 3.4).
     const landmarks::DepthUncertainty tau = landmarks::depthUncertainty(p.landmark->bearing, X1.norm(), t_host_partner,
                                                                         intrinsics_.fx, depthPixelNoise_);
-    const double range = pointModel_.keypoint.inverseDepthMax - pointModel_.keypoint.inverseDepthMin;
-    const double variance = tau.valid && tau.tau2InverseDepth() > 0.0 ? tau.tau2InverseDepth() : range * range / 36.0;
+    const double variance = tau.valid && tau.tau2InverseDepth() > 0.0
+                                ? tau.tau2InverseDepth()
+                                : mapping::initialInverseDepthVariance(pointModel_.keypoint);
     p.state = keypointModel_.initialize(p.landmark->inverseDepth / p.landmark->bearing.z(), variance);
     const double ssd = patternSsdAt(*p.landmark, host.affine, partnerLevel0, x2, partner.affine);
     const double alpha = std::isfinite(ssd) ? landmarks::matchingAccuracyFromSsd(ssd * 255.0 * 255.0,

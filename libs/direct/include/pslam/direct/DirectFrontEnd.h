@@ -203,12 +203,10 @@ class DirectFrontEnd : public tracking::DirectPointSource {
 
   DirectFeaturesParams params_;
   landmarks::PointModelParams pointModel_;
-  geometry::PinholeCamera camera_;
   map::CameraIntrinsics intrinsics_;
   double depthPixelNoise_ = 1.0;
   bool distorted_ = false;
   cv::Mat undistortX_, undistortY_;
-  features::DirectSelectorParams selectorParams_;
   landmarks::KeypointModel keypointModel_;
   std::unique_ptr<landmarks::MapPointPolicy> policy_;
   std::map<map::KeyFrameId, DirectHost> hosts_;
@@ -222,7 +220,6 @@ class DirectFrontEnd : public tracking::DirectPointSource {
   std::vector<PointRef> lastFactors_;  ///< points of the last poseFactors() factors, in order
   std::vector<PointRef> lastInView_;   ///< every point of the tracking hosts in view at the last call
   int lastActive_ = 0, lastInactive_ = 0, lastReferenceInView_ = 0, lastReferenceActive_ = 0;
-  map::KeyFrameId lastReference_ = map::kNoKeyFrame;
   std::vector<PointRef> baPoints_;     ///< points of the last bundleAdjustmentFactors(), per factor
 };
 
