@@ -61,6 +61,7 @@ function(priorslam_add_test name)
   add_executable(${name} ${A_SOURCES})
   target_compile_options(${name} PRIVATE ${PRIORSLAM_WARNINGS})
   target_link_libraries(${name} PRIVATE ${A_DEPS} GTest::gtest GTest::gtest_main)
+  target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/tests/support)  # pslam_test/TestSupport.h
   target_compile_definitions(${name} PRIVATE
     PRIORSLAM_SHARED_DATA_DIR="${PRIORSLAM_SHARED_DATA_DIR}"
     PRIORSLAM_SOURCE_DIR="${CMAKE_SOURCE_DIR}"

@@ -25,6 +25,7 @@
 #include "pslam/map/MapIO.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/system/System.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
@@ -32,16 +33,11 @@ using namespace pslam;
 namespace {
 const fs::path kConfig = fs::path(PRIORSLAM_SOURCE_DIR) / "config/slam/synthetic.ini";
 
-struct TempRoot {
-  fs::path path = fs::temp_directory_path() / ("pslam_map_reuse_e2e_" + std::to_string(::getpid()));
-  TempRoot() { fs::create_directories(path); }
-  ~TempRoot() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
+using test_support::errorOf;
+using test_support::readBytes;
+
 const fs::path& tempRoot() {
-  static const TempRoot root;
+  static const test_support::TempDir root("pslam_map_reuse_e2e");
   return root.path;
 }
 
@@ -91,20 +87,6 @@ const fs::path& runA() {
     return d;
   }();
   return out;
-}
-
-std::string readBytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 std::size_t filesIn(const fs::path& dir) {

@@ -28,6 +28,7 @@
 #include "pslam/system/System.h"
 #include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
@@ -36,18 +37,12 @@ namespace {
 const fs::path kConfig = fs::path(PRIORSLAM_SOURCE_DIR) / "config/slam/synthetic.ini";
 constexpr int kFrames = 60;
 
+using test_support::errorOf;
+
 // Per-process temporary folder, removed at exit (the guard owns its own copy of the path, so static
 // destruction order does not matter).
-struct TempRoot {
-  fs::path path = fs::temp_directory_path() / ("pslam_slam_e2e_" + std::to_string(::getpid()));
-  TempRoot() { fs::create_directories(path); }
-  ~TempRoot() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 const fs::path& tempRoot() {
-  static const TempRoot root;
+  static const test_support::TempDir root("pslam_slam_e2e");
   return root.path;
 }
 
@@ -104,15 +99,6 @@ double ateSim3(const Trajectory& gt, const Trajectory& est) {
   return eval::computeAte(g, eval::applyAlignment(e, a)).stats.rmse;
 }
 
-template <typename F>
-std::string errorOf(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
 }  // namespace
 
 TEST(SlamE2E, InitializesTracksAndStaysCloseToGroundTruth) {

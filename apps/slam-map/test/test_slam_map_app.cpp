@@ -15,18 +15,14 @@
 #include "pslam/landmarks/KeypointModel.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/mapping/LocalMapper.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
 
 namespace {
-struct TempDir {
-  fs::path path = fs::temp_directory_path() / ("pslam_slam_map_app_" + std::to_string(::getpid()));
-  TempDir() { fs::create_directories(path); }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+struct TempDir : test_support::TempDir {
+  TempDir() : test_support::TempDir("pslam_slam_map_app") {}
 };
 
 map::Map syntheticMap() {
@@ -52,14 +48,7 @@ std::size_t addModelStates(map::Map& m, double a, double b) {
   return n;
 }
 
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test_support::errorOf;
 
 std::size_t countLines(const fs::path& p) {
   std::ifstream in(p);

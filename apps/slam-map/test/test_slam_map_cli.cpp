@@ -14,6 +14,7 @@
 
 #include "SyntheticMap.h"
 #include "pslam/map/MapIO.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 
@@ -41,13 +42,8 @@ CliRun runCli(const std::string& args, const fs::path& dir) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err};
 }
 
-struct TempDir {
-  fs::path path = fs::temp_directory_path() / ("pslam_slam_map_cli_" + std::to_string(::getpid()));
-  TempDir() { fs::create_directories(path); }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+struct TempDir : pslam::test_support::TempDir {
+  TempDir() : pslam::test_support::TempDir("pslam_slam_map_cli") {}
 };
 }  // namespace
 
