@@ -22,6 +22,75 @@ map::KeyFrame toKeyFrame(const Frame& frame) {
   return kf;
 }
 
+InitialMapOutcome buildInitialMap(Frame& reference, Frame& current, const Eigen::Isometry3d& T_cur_ref,
+                                  const std::vector<std::pair<int, int>>& pairs,
+                                  const std::vector<Eigen::Vector3d>& points_ref,
+                                  const optimize::BundleAdjustmentParams& baParams, int minMapPoints, map::Map& map) {
+  require(map.numKeyFrames() == 0, "initializer", "the map must be empty");
+  require(pairs.size() == points_ref.size(), "initializer", "one triangulated point per keypoint pair");
+  InitialMapOutcome out;
+  // ---- initial map: reference = world frame
+  Frame& ref = reference;
+  ref.T_cam_world = Eigen::Isometry3d::Identity();
+  ref.hasPose = true;
+  current.T_cam_world = T_cur_ref;
+  current.hasPose = true;
+  const map::KeyFrameId kf1 = map.addKeyFrame(toKeyFrame(ref));
+  const map::KeyFrameId kf2 = map.addKeyFrame(toKeyFrame(current));
+  for (std::size_t m = 0; m < pairs.size(); ++m) {
+    const map::MapPointId p = map.addMapPoint(kf1, static_cast<std::size_t>(pairs[m].first), points_ref[m]);
+    map.addObservation(p, kf2, static_cast<std::size_t>(pairs[m].second));
+    map.computeDistinctiveDescriptor(p);
+    map.updateNormalAndDepth(p);
+  }
+  map.connectToSpanningTree(kf2);
+
+  // Global BA of the two-view map (ORB-SLAM: 20 iterations), then drop points that became outliers.
+  const optimize::BAProblem problem = optimize::makeGlobalProblem(map);
+  const optimize::BAResult ba = optimize::globalBundleAdjustment(problem, baParams);
+  optimize::applyResult(map, problem, ba, /*eraseOutliers=*/true);
+
+  // Median depth of the points in the first keyframe; the map is scaled so that it becomes 1.
+  std::vector<double> depths;
+  const auto& k1 = map.keyFrame(kf1);
+  for (map::MapPointId p : map.pointsOf(kf1)) depths.push_back((k1.T_cam_world * map.worldPosition(p)).z());
+  std::sort(depths.begin(), depths.end());
+  const double medianDepth = depths.empty() ? -1.0 : depths[depths.size() / 2];
+  const int tracked = map.trackedMapPoints(kf2, 1);
+  if (!(medianDepth > 0) || tracked < minMapPoints) {
+    out.message = "initial map rejected: median depth " + std::to_string(medianDepth) + ", " +
+                  std::to_string(tracked) + " points";
+    map = map::Map();
+    return out;
+  }
+  const double invMedian = 1.0 / medianDepth;
+  Eigen::Isometry3d T2 = map.keyFrame(kf2).T_cam_world;
+  T2.translation() *= invMedian;
+  map.setKeyFramePose(kf2, T2);
+  std::vector<map::MapPointId> ids;
+  for (const auto& [id, p] : map.mapPoints()) ids.push_back(id);
+  for (map::MapPointId id : ids) {
+    map.setWorldPosition(id, map.worldPosition(id) * invMedian);
+    map.updateNormalAndDepth(id);
+  }
+
+  // Associations of both frames with the surviving points.
+  ref.resetMatches();
+  current.resetMatches();
+  ref.T_cam_world = map.keyFrame(kf1).T_cam_world;
+  current.T_cam_world = T2;
+  const auto& mk1 = map.keyFrame(kf1);
+  const auto& mk2 = map.keyFrame(kf2);
+  for (std::size_t i = 0; i < mk1.mapPointIds.size(); ++i) ref.mapPointIds[i] = mk1.mapPointIds[i];
+  for (std::size_t i = 0; i < mk2.mapPointIds.size(); ++i) current.mapPointIds[i] = mk2.mapPointIds[i];
+
+  out.accepted = true;
+  out.kf1 = kf1;
+  out.kf2 = kf2;
+  out.message = std::to_string(map.numMapPoints()) + " points, median depth " + std::to_string(medianDepth);
+  return out;
+}
+
 MonocularInitializer::MonocularInitializer(const geometry::PinholeCamera& camera, InitializerParams params,
                                            optimize::BundleAdjustmentParams baParams)
     : camera_(camera), params_(params), baParams_(baParams), twoView_(geometry::PinholeCamera(
@@ -81,71 +150,28 @@ InitializationOutcome MonocularInitializer::process(Frame& current, map::Map& ma
     return out;  // keep the reference, try the next frame (ORB-SLAM)
   }
 
-  // ---- initial map: reference = world frame
-  require(map.numKeyFrames() == 0, "initializer", "the map must be empty");
+  std::vector<std::pair<int, int>> triangulatedPairs;
+  std::vector<Eigen::Vector3d> points;
+  for (std::size_t m = 0; m < matches.size(); ++m)
+    if (tv.triangulated[m]) {
+      triangulatedPairs.emplace_back(matches[m].i1, matches[m].i2);
+      points.push_back(tv.points_ref[m]);
+    }
   Frame& ref = *reference_;
-  ref.T_cam_world = Eigen::Isometry3d::Identity();
-  ref.hasPose = true;
-  current.T_cam_world = Eigen::Isometry3d::Identity();
-  current.T_cam_world.linear() = tv.R_cur_ref;
-  current.T_cam_world.translation() = tv.t_cur_ref;
-  current.hasPose = true;
-  const map::KeyFrameId kf1 = map.addKeyFrame(toKeyFrame(ref));
-  const map::KeyFrameId kf2 = map.addKeyFrame(toKeyFrame(current));
-  for (std::size_t m = 0; m < matches.size(); ++m) {
-    if (!tv.triangulated[m]) continue;
-    const map::MapPointId p = map.addMapPoint(kf1, static_cast<std::size_t>(matches[m].i1), tv.points_ref[m]);
-    map.addObservation(p, kf2, static_cast<std::size_t>(matches[m].i2));
-    map.computeDistinctiveDescriptor(p);
-    map.updateNormalAndDepth(p);
-  }
-  map.connectToSpanningTree(kf2);
-
-  // Global BA of the two-view map (ORB-SLAM: 20 iterations), then drop points that became outliers.
-  const optimize::BAProblem problem = optimize::makeGlobalProblem(map);
-  const optimize::BAResult ba = optimize::globalBundleAdjustment(problem, baParams_);
-  optimize::applyResult(map, problem, ba, /*eraseOutliers=*/true);
-
-  // Median depth of the points in the first keyframe; the map is scaled so that it becomes 1.
-  std::vector<double> depths;
-  const auto& k1 = map.keyFrame(kf1);
-  for (map::MapPointId p : map.pointsOf(kf1)) depths.push_back((k1.T_cam_world * map.worldPosition(p)).z());
-  std::sort(depths.begin(), depths.end());
-  const double medianDepth = depths.empty() ? -1.0 : depths[depths.size() / 2];
-  const int tracked = map.trackedMapPoints(kf2, 1);
-  if (!(medianDepth > 0) || tracked < params_.minMapPoints) {
-    out.message = "initial map rejected: median depth " + std::to_string(medianDepth) + ", " +
-                  std::to_string(tracked) + " points";
-    map = map::Map();
+  Eigen::Isometry3d T_cur_ref = Eigen::Isometry3d::Identity();
+  T_cur_ref.linear() = tv.R_cur_ref;
+  T_cur_ref.translation() = tv.t_cur_ref;
+  const InitialMapOutcome built =
+      buildInitialMap(ref, current, T_cur_ref, triangulatedPairs, points, baParams_, params_.minMapPoints, map);
+  if (!built.accepted) {
+    out.message = built.message;
     reference_.reset();
     return out;
   }
-  const double invMedian = 1.0 / medianDepth;
-  Eigen::Isometry3d T2 = map.keyFrame(kf2).T_cam_world;
-  T2.translation() *= invMedian;
-  map.setKeyFramePose(kf2, T2);
-  std::vector<map::MapPointId> ids;
-  for (const auto& [id, p] : map.mapPoints()) ids.push_back(id);
-  for (map::MapPointId id : ids) {
-    map.setWorldPosition(id, map.worldPosition(id) * invMedian);
-    map.updateNormalAndDepth(id);
-  }
-
-  // Associations of both frames with the surviving points.
-  ref.resetMatches();
-  current.resetMatches();
-  ref.T_cam_world = map.keyFrame(kf1).T_cam_world;
-  current.T_cam_world = T2;
-  const auto& mk1 = map.keyFrame(kf1);
-  const auto& mk2 = map.keyFrame(kf2);
-  for (std::size_t i = 0; i < mk1.mapPointIds.size(); ++i) ref.mapPointIds[i] = mk1.mapPointIds[i];
-  for (std::size_t i = 0; i < mk2.mapPointIds.size(); ++i) current.mapPointIds[i] = mk2.mapPointIds[i];
-
   out.initialized = true;
-  out.kf1 = kf1;
-  out.kf2 = kf2;
-  out.message = std::string("initialized (") + geometry::toString(tv.model) + ", " + std::to_string(map.numMapPoints()) +
-                " points, median depth " + std::to_string(medianDepth) + ")";
+  out.kf1 = built.kf1;
+  out.kf2 = built.kf2;
+  out.message = std::string("initialized (") + geometry::toString(tv.model) + ", " + built.message + ")";
   if (referenceOut) *referenceOut = ref;
   reference_.reset();
   return out;

@@ -82,4 +82,21 @@ class MonocularInitializer : public MapInitializer {
 /// The map keyframe of a tracked frame (measurements only; associations are added by the caller).
 map::KeyFrame toKeyFrame(const Frame& frame);
 
+struct InitialMapOutcome {
+  bool accepted = false;
+  std::string message;  ///< "<n> points, median depth <d>" or why the map was rejected
+  map::KeyFrameId kf1 = map::kNoKeyFrame, kf2 = map::kNoKeyFrame;
+};
+
+/// The initial map of every initializer (ORB-SLAM's CreateInitialMapMonocular): `reference` becomes the world
+/// frame and keyframe 1, `current` keyframe 2 at T_cur_ref; one point per keypoint pair (reference keypoint,
+/// current keypoint) at `points_ref` (reference frame); global BA; points that became outliers are dropped; the
+/// map is scaled so that the median depth in keyframe 1 is 1. Fewer than `minMapPoints` points tracked by
+/// keyframe 2, or a non-positive median depth: the map is cleared and the outcome not accepted. On success both
+/// frames get their pose and their associations with the surviving points.
+InitialMapOutcome buildInitialMap(Frame& reference, Frame& current, const Eigen::Isometry3d& T_cur_ref,
+                                  const std::vector<std::pair<int, int>>& pairs,
+                                  const std::vector<Eigen::Vector3d>& points_ref,
+                                  const optimize::BundleAdjustmentParams& baParams, int minMapPoints, map::Map& map);
+
 }  // namespace pslam::tracking
