@@ -6,13 +6,16 @@
 #include <ctime>
 #include <deque>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
 #include "pslam/core/Error.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/map/MapIO.h"
+#include "pslam/manhattan/ManhattanTracker.h"
 #include "pslam/mapping/LocalMapper.h"
+#include "pslam/priors/NormalMap.h"
 #include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
 
@@ -49,6 +52,7 @@ void relativeToReference(const ImplT& s, const tracking::Tracker::Result& res, m
 
 struct Counters {
   std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, resets = 0;
+  std::size_t manhattanFrames = 0, manhattanTracked = 0, fallbackTracked = 0;
   long long initializedAtFrame = -1;
 };
 
@@ -90,7 +94,33 @@ struct System::Impl {
           },
           [this](const std::vector<bool>& outliers) { directFrontEnd->afterBundleAdjustment(outliers); });
     }
+    if (params.manhattan.enabled) {
+      // §4.4: the mean shift gives every frame's Manhattan frame; the tracker uses its rotation with a
+      // translation-only solver and falls back to 6-DoF tracking when the pose does not validate.
+      manhattanTracker = std::make_unique<manhattan::ManhattanTracker>(params.manhattanTracker);
+      tracker->enableManhattanPath(params.manhattan,
+                                   tracking::makePoseSolver("translationOnly", params.poseOptimization));
+    }
     if (threaded) worker = std::thread([this] { mappingLoop(); });
+  }
+
+  /// The frame's Manhattan frame from its NORMALS (Algorithm 4, labels tracked from frame to frame).
+  manhattan::ManhattanEstimate estimateManhattanFrame(tracking::Frame& frame, const std::string& ctx) {
+    // A rawlog without normals is a setup mistake (said at its first frame); a later frame without them has no
+    // Manhattan frame and is tracked by the 6-DoF path.
+    require(!frame.normals.empty() || counters.frames > 0, ctx,
+            "[Manhattan] enabled = true but the frame has no NORMALS channel (add one with normal-priors "
+            "--source depth|network, or render it with slam-synth)");
+    if (frame.normals.empty()) {
+      manhattan::ManhattanEstimate none;
+      none.reason = "no NORMALS channel";
+      return none;
+    }
+    const cv::Mat normals = priors::decodeNormalMap(frame.normals, ctx + " NORMALS");
+    const manhattan::ManhattanEstimate est =
+        manhattanTracker->process(priors::collectNormals(normals, params.manhattan.normalStride));
+    if (est.valid) frame.R_cam_mf = est.R_cam_mf;
+    return est;
   }
 
   ~Impl() {
@@ -187,6 +217,7 @@ struct System::Impl {
   std::unique_ptr<mapping::LocalMapper> mapper;
   std::unique_ptr<tracking::Tracker> tracker;
   std::shared_ptr<direct::DirectFrontEnd> directFrontEnd;  ///< null unless [DirectFeatures] enabled
+  std::unique_ptr<manhattan::ManhattanTracker> manhattanTracker;  ///< null unless [Manhattan] enabled
   StageTimings trackingTimings, mappingTimings;
   nlohmann::json mappingLog = nlohmann::json::array();
   nlohmann::json frames = nlohmann::json::array();
@@ -283,6 +314,12 @@ TrackResult System::track(const datasets::Frame& input) {
       frame = tracking::makeFrame(dropSemantic ? withoutSemantic : input, s.camera, s.tracker->initialized() ? s.extractor : s.initExtractor,
                                   ctx + " (t=" + std::to_string(input.timestamp) + ")");
     }
+    std::optional<manhattan::ManhattanEstimate> mf;
+    const bool hasNormals = !frame.normals.empty();
+    if (s.manhattanTracker) {
+      ScopedStage st(s.trackingTimings, "manhattan_frame");
+      mf = s.estimateManhattanFrame(frame, ctx);
+    }
     if (s.threaded) {
       std::lock_guard<std::mutex> lk(s.queueMutex);
       s.tracker->setLocalMappingIdle(s.queue.empty() && !s.busy);
@@ -291,6 +328,13 @@ TrackResult System::track(const datasets::Frame& input) {
     if (s.threaded) mk.lock();
     const cv::Mat grey = frame.grey, semantic = frame.semantic;
     res = s.tracker->track(std::move(frame), s.trackingTimings);
+    if (mf) {
+      tracking::ManhattanFrameReport& m = res.report.manhattan;
+      m.normals = hasNormals;
+      m.frameValid = mf->valid;
+      m.observedAxes = mf->observedAxes;
+      if (!mf->valid) m.reason = "no Manhattan frame: " + mf->reason;
+    }
     if (res.mapWasReset) {
       s.mapper->reset();
       s.newGeneration();
@@ -342,6 +386,9 @@ TrackResult System::track(const datasets::Frame& input) {
                        res.initialReferencePose->second});
   }
   if (res.report.status == tracking::FrameStatus::Lost) ++c.lost;
+  if (res.report.manhattan.frameValid) ++c.manhattanFrames;
+  if (res.hasPose && res.report.manhattan.mode == "manhattan") ++c.manhattanTracked;
+  if (res.hasPose && res.report.manhattan.mode == "fallback") ++c.fallbackTracked;
   if (res.report.status == tracking::FrameStatus::Relocalized) ++c.relocalizations;
   if (res.hasPose) {
     ++c.tracked;
@@ -486,7 +533,10 @@ nlohmann::json System::summary() const {
           {"map_points", mapPoints},
           {"resets", c.resets},
           {"direct_points", direct["direct_points"]},
-          {"direct_active", direct["direct_active"]}};
+          {"direct_active", direct["direct_active"]},
+          {"manhattan_frames", c.manhattanFrames},
+          {"manhattan_tracked", c.manhattanTracked},
+          {"fallback_tracked", c.fallbackTracked}};
 }
 
 nlohmann::json System::report() const {

@@ -173,7 +173,10 @@ TEST(SlamParams, EveryShippedConfigLoads) {
     EXPECT_EQ(p.pointModel.policy.model, landmarks::MapPointModel::Heuristic);
     EXPECT_EQ(p.mapping.fusionDistanceBand, 0.0);
     EXPECT_EQ(p.system.poseSolver, "full6dof");
-    EXPECT_EQ(p.system.initializer, "twoView");
+    // The chapter-4 configuration initializes from the Manhattan frames (§4.4.1); every other one with H/F.
+    const bool structure = f.filename() == "structure.ini";
+    EXPECT_EQ(p.system.initializer, structure ? "manhattan" : "twoView");
+    EXPECT_EQ(p.manhattan.enabled, structure);
     EXPECT_FALSE(p.system.threaded);
     // The effective configuration reloads to the same parameters.
     mrpt::config::CConfigFileMemory mem(p.toIniText());

@@ -1,6 +1,7 @@
 #include "pslam/tracking/MapInitializer.h"
 
 #include "pslam/core/NamedRegistry.h"
+#include "pslam/tracking/ManhattanInitializer.h"
 #include "pslam/tracking/MonocularInitializer.h"
 
 namespace pslam::tracking {
@@ -11,6 +12,10 @@ NamedRegistry<MapInitializerFactory>& registry() {
       {{"twoView", [](const geometry::PinholeCamera& camera, const InitializerParams& params,
                       const optimize::BundleAdjustmentParams& ba) {
           return std::make_unique<MonocularInitializer>(camera, params, ba);
+        }},
+       {"manhattan", [](const geometry::PinholeCamera& camera, const InitializerParams& params,
+                        const optimize::BundleAdjustmentParams& ba) {
+          return std::make_unique<ManhattanInitializer>(camera, params, ba);
         }}});
   return r;
 }

@@ -22,6 +22,19 @@ map::KeyFrame toKeyFrame(const Frame& frame) {
   return kf;
 }
 
+void keepStaticMatches(const Frame& reference, const Frame& current, double minStaticProbability,
+                       std::vector<features::IndexMatch>& matches) {
+  // §3.4.1: potentially moving objects stay out of the initial map. A keypoint without semantics counts as static.
+  if (minStaticProbability <= 0.0) return;
+  auto isStatic = [&](const Frame& f, int k) {
+    return f.semanticProbabilities.empty() ||
+           f.semanticProbabilities[static_cast<std::size_t>(k)][0] >= minStaticProbability;
+  };
+  matches.erase(std::remove_if(matches.begin(), matches.end(),
+                               [&](const auto& m) { return !isStatic(reference, m.i1) || !isStatic(current, m.i2); }),
+                matches.end());
+}
+
 InitialMapOutcome buildInitialMap(Frame& reference, Frame& current, const Eigen::Isometry3d& T_cur_ref,
                                   const std::vector<std::pair<int, int>>& pairs,
                                   const std::vector<Eigen::Vector3d>& points_ref,
@@ -124,16 +137,7 @@ InitializationOutcome MonocularInitializer::process(Frame& current, map::Map& ma
   auto matches = features::matchForInitialization(reference_->keypoints, reference_->descriptors,
                                                   current.keypoints, current.descriptors, current.grid,
                                                   prevMatched, mp);
-  // §3.4.1: potentially moving objects stay out of the initial map. A keypoint without semantics counts as static.
-  if (params_.minStaticProbability > 0.0) {
-    auto isStatic = [&](const Frame& f, int k) {
-      return f.semanticProbabilities.empty() ||
-             f.semanticProbabilities[static_cast<std::size_t>(k)][0] >= params_.minStaticProbability;
-    };
-    matches.erase(std::remove_if(matches.begin(), matches.end(),
-                                 [&](const auto& m) { return !isStatic(*reference_, m.i1) || !isStatic(current, m.i2); }),
-                  matches.end());
-  }
+  keepStaticMatches(*reference_, current, params_.minStaticProbability, matches);
   out.matches = static_cast<int>(matches.size());
   if (out.matches < params_.minMatches)
     return takeAsReference("too few initialization matches (" + std::to_string(out.matches) + ")");

@@ -5,11 +5,25 @@
 #include <set>
 
 #include "pslam/core/Error.h"
+#include "pslam/manhattan/ManhattanTracker.h"
 
 namespace pslam::tracking {
 
 // ---------------------------------------------------------------- parameters
 PSLAM_DEFINE_PARAMS(TrackerParams)
+PSLAM_DEFINE_PARAMS(ManhattanPathParams)
+
+nlohmann::json ManhattanFrameReport::toJson() const {
+  return {{"normals", normals},
+          {"frame_valid", frameValid},
+          {"observed_axes", observedAxes},
+          {"mode", mode},
+          {"prior_deviation_deg", priorDeviationDeg},
+          {"refinement_deg", refinementDeg},
+          {"validation_in_view", validationInView},
+          {"validation_inliers", validationInliers},
+          {"reason", reason}};
+}
 
 const char* toString(FrameStatus status) {
   switch (status) {
@@ -29,6 +43,7 @@ nlohmann::json FrameReport::toJson() const {
           {"direct_factors", direct.factors}, {"direct_inliers", direct.inliers}, {"direct_active", direct.active},
           {"direct_inactive", direct.inactive}, {"direct_measured", direct.measured},
           {"direct_reference_in_view", direct.referenceInView}, {"direct_reference_active", direct.referenceActive},
+          {"manhattan", manhattan.toJson()},
           {"map_points", mapPoints}, {"keyframes", keyFrames}, {"message", message}};
 }
 
@@ -44,6 +59,18 @@ Tracker::Tracker(map::Map& map, const geometry::PinholeCamera& camera, TrackerPa
       solver_(solver ? std::move(solver) : std::make_unique<FullPoseSolver>()),
       rng_(seed) {
   params_.check();
+}
+
+void Tracker::enableManhattanPath(ManhattanPathParams params, std::unique_ptr<PoseSolver> solver) {
+  params.check();
+  require(solver != nullptr, "Manhattan", "a translation-only pose solver is needed");
+  manhattanParams_ = params;
+  manhattanSolver_ = std::move(solver);
+  manhattan_ = true;
+}
+
+const PoseSolver& Tracker::solverFor(const Frame& frame) const {
+  return frame.rotationPrior && manhattanSolver_ ? *manhattanSolver_ : *solver_;
 }
 
 void Tracker::setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> policy) {
@@ -70,6 +97,7 @@ void Tracker::onMapLoaded() {
   relocalizedEver_ = false;
   localKeyFrames_.clear();
   last_ = Frame();
+  R_world_mf_.reset();  // found again on the first tracked frame with a Manhattan frame
 }
 
 void Tracker::reset() {
@@ -82,6 +110,7 @@ void Tracker::reset() {
   relocalizedEver_ = false;
   localKeyFrames_.clear();
   last_ = Frame();
+  R_world_mf_.reset();
 }
 
 void Tracker::recordMeasurements(const Frame& frame) {
@@ -160,7 +189,8 @@ int Tracker::optimizeFramePose(Frame& frame) {
   request.observations = std::move(obs);
   request.rotationPrior = frame.rotationPrior;
   const optimize::PoseOptimizationResult r =
-      direct.empty() ? solver_->solve(request) : solver_->solveCoarseToFine(request, direct, direct_->coarsestLevel());
+      direct.empty() ? solverFor(frame).solve(request)
+                     : solverFor(frame).solveCoarseToFine(request, direct, direct_->coarsestLevel());
   frame.T_cam_world = r.T_cam_world;
   frame.hasPose = true;
   directFactors_ = static_cast<int>(direct.size());
@@ -195,10 +225,7 @@ int Tracker::optimizeFramePose(Frame& frame) {
   return inliers;
 }
 
-bool Tracker::trackWithMotionModel(Frame& frame) {
-  frame.resetMatches();
-  measured_.clear();  // only the matches of the attempt that succeeds are measurements
-  frame.T_cam_world = velocity_ * last_.T_cam_world;
+int Tracker::searchLastFrame(Frame& frame) {
   std::vector<ProjectionCandidate> cands;
   for (std::size_t i = 0; i < last_.size(); ++i) {
     const map::MapPointId id = last_.mapPointIds[i];
@@ -225,9 +252,108 @@ bool Tracker::trackWithMotionModel(Frame& frame) {
     frame.resetMatches();
     n = search(2 * params_.motionModelRadius);
   }
+  return n;
+}
+
+bool Tracker::trackWithMotionModel(Frame& frame) {
+  frame.resetMatches();
+  measured_.clear();  // only the matches of the attempt that succeeds are measurements
+  frame.T_cam_world = velocity_ * last_.T_cam_world;
+  const int n = searchLastFrame(frame);
   // With direct points the photometric alignment can carry a frame whose keypoint matches are too few (§3.4.2).
   if (n < params_.minMotionMatches && !direct_) return false;
   return poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+}
+
+std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, ManhattanFrameReport& report) const {
+  if (!frame.R_cam_mf) {
+    report.reason = "no Manhattan frame";
+    return std::nullopt;
+  }
+  if (!R_world_mf_) {
+    report.reason = "global Manhattan frame not known yet";
+    return std::nullopt;
+  }
+  if (lost_ || !last_.hasPose) {
+    report.reason = "no pose prediction";
+    return std::nullopt;
+  }
+  // The frame's axes re-labelled to the prediction's (the mean-shift tracker keeps labels from frame to frame,
+  // but re-initializations may permute them), then R_cam_world = R_cam_mf R_world_mf^T (§4.4.2).
+  const Eigen::Matrix3d R_pred = (haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world).linear();
+  double deviation = 0.0;
+  const Eigen::Matrix3d R_cam_mf = manhattan::alignToReference(*frame.R_cam_mf, R_pred * *R_world_mf_, &deviation);
+  report.priorDeviationDeg = deviation;
+  if (deviation > manhattanParams_.maxPriorDeviationDeg) {
+    report.reason = "Manhattan rotation " + std::to_string(deviation) + " deg from the prediction";
+    return std::nullopt;
+  }
+  return R_cam_mf * R_world_mf_->transpose();
+}
+
+bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_cam_world,
+                                         ManhattanFrameReport& report) {
+  frame.resetMatches();
+  measured_.clear();
+  frame.rotationPrior = R_cam_world;
+  // The motion model's camera centre with the Manhattan rotation.
+  const Eigen::Isometry3d predicted = haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world;
+  const Eigen::Vector3d centre = -(predicted.linear().transpose() * predicted.translation());
+  frame.T_cam_world.linear() = R_cam_world;
+  frame.T_cam_world.translation() = -(R_cam_world * centre);
+  const int n = searchLastFrame(frame);
+  if (n < params_.minMotionMatches && !direct_) {
+    report.reason = "too few motion-model matches (" + std::to_string(n) + ")";
+    return false;
+  }
+  if (!poseSupported(optimizeFramePose(frame), params_.minPoseInliers)) {
+    report.reason = "too few inliers with the Manhattan rotation";
+    return false;
+  }
+  // §4.4.2 "Pose Refinement": the local map refines the Manhattan estimate in all 6 DoF ("not limited to MW
+  // conform solutions"), or keeps the rotation when refinePose = false.
+  if (manhattanParams_.refinePose) frame.rotationPrior.reset();
+  deferCounters_ = true;
+  const int inliers = trackLocalMap(frame);
+  deferCounters_ = false;
+  report.refinementDeg = manhattan::rotationAngleDeg(R_cam_world, frame.T_cam_world.linear());
+  if (!poseSupported(inliers, params_.minLocalMapInliers)) {
+    report.reason = "too few local-map inliers with the Manhattan rotation (" + std::to_string(inliers) + ")";
+    return false;
+  }
+  // Pose validation (§4.4.2): the points of the last n keyframes in view at the estimated pose, and how many of
+  // them the frame holds as inliers (matched and kept by the chi-square test of the optimization).
+  std::set<map::MapPointId> recent;
+  int taken = 0;
+  for (auto it = map_.keyFrames().rbegin(); it != map_.keyFrames().rend() && taken < manhattanParams_.validationKeyFrames;
+       ++it, ++taken)
+    for (map::MapPointId p : map_.pointsOf(it->first))
+      if (usable(p)) recent.insert(p);
+  std::set<map::MapPointId> held;
+  for (std::size_t i = 0; i < frame.size(); ++i)
+    if (frame.mapPointIds[i] != map::kNoMapPoint && !frame.outlier[i]) held.insert(frame.mapPointIds[i]);
+  for (map::MapPointId p : recent) {
+    const Eigen::Vector3d pc = frame.T_cam_world * map_.worldPosition(p);
+    if (pc.z() <= 0) continue;
+    const Eigen::Vector2d uv = frame.camera.project(pc);
+    if (!frame.bounds.contains(uv.x(), uv.y())) continue;
+    ++report.validationInView;
+    if (held.count(p)) ++report.validationInliers;
+  }
+  if (report.validationInliers < manhattanParams_.validationMinInliers ||
+      report.validationInliers < manhattanParams_.validationMinRatio * report.validationInView) {
+    report.reason = "validation: " + std::to_string(report.validationInliers) + " of " +
+                    std::to_string(report.validationInView) + " recent points in view are inliers";
+    return false;
+  }
+  // Accepted: the visibility counters of the local-map search count now.
+  if (mapUpdates_) {
+    for (map::MapPointId id : deferredVisible_)
+      if (map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).visibleCount;
+    for (map::MapPointId id : deferredFound_)
+      if (map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).foundCount;
+  }
+  return true;
 }
 
 bool Tracker::trackReferenceKeyFrame(Frame& frame) {
@@ -294,12 +420,21 @@ void Tracker::updateLocalKeyFrames(const Frame& frame) {
 
 int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
   updateLocalKeyFrames(frame);
+  deferredVisible_.clear();
+  deferredFound_.clear();
+  // ORB-SLAM's visible / found counters (culling's found ratio); held back while deferCounters_.
+  auto countVisible = [&](map::MapPointId id) {
+    if (deferCounters_)
+      deferredVisible_.push_back(id);
+    else if (mapUpdates_ && map_.hasMapPoint(id))
+      ++map_.mutableMapPoint(id).visibleCount;
+  };
   std::set<map::MapPointId> matched;
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId id = frame.mapPointIds[i];
     if (id == map::kNoMapPoint) continue;
     matched.insert(id);
-    if (mapUpdates_ && map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).visibleCount;
+    countVisible(id);
   }
   std::set<map::MapPointId> localPoints;
   for (map::KeyFrameId kf : localKeyFrames_)
@@ -324,7 +459,7 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
     if (dist < 0.8 * p.minDistance || dist > 1.2 * p.maxDistance) continue;
     const double viewCos = p.normal.norm() > 0 ? po.dot(p.normal) / dist : 1.0;
     if (viewCos < 0.5) continue;
-    if (mapUpdates_) ++map_.mutableMapPoint(id).visibleCount;
+    countVisible(id);
     ProjectionCandidate c;
     c.id = id;
     c.p_world = pw;
@@ -346,7 +481,11 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
   finalOptimization_ = false;
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const map::MapPointId id = frame.mapPointIds[i];
-    if (mapUpdates_ && id != map::kNoMapPoint && map_.hasMapPoint(id)) ++map_.mutableMapPoint(id).foundCount;
+    if (id == map::kNoMapPoint) continue;
+    if (deferCounters_)
+      deferredFound_.push_back(id);
+    else if (mapUpdates_ && map_.hasMapPoint(id))
+      ++map_.mutableMapPoint(id).foundCount;
   }
   return inliers;
 }
@@ -485,6 +624,11 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
       rep.keyFrame = true;
       res.newKeyFrames = {init.kf1, init.kf2};
       res.initialReferencePose = std::make_pair(reference.timestamp, reference.T_cam_world);
+      // §4.4.1: "we use the MW orientation found in the first image as our global MW frame".
+      if (reference.R_cam_mf)
+        R_world_mf_ = reference.T_cam_world.linear().transpose() * *reference.R_cam_mf;
+      else if (frame.R_cam_mf)
+        R_world_mf_ = frame.T_cam_world.linear().transpose() * *frame.R_cam_mf;
       referenceKeyFrame_ = init.kf2;
       lastKeyFrameFrame_ = frame.index;
       // No velocity yet (as ORB-SLAM after initialization): the next frame is tracked against the reference keyframe.
@@ -501,42 +645,66 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
 
   bool ok = false;
   bool relocalized = false;
-  {
-    ScopedStage st(timings, "matching");
-    useDirect_ = true;  // the motion-model, reference and local-map attempts; relocalization has no pose guess
-    if (!lost_) {
-      if (haveVelocity_) {
-        ok = trackWithMotionModel(frame);
-        rep.method = "motion";
+  bool manhattanTracked = false;
+  if (manhattan_) {
+    // §4.4.2: the Manhattan rotation and a translation-only estimate first; the 6-DoF path when there is no
+    // usable Manhattan rotation or its pose does not validate.
+    rep.manhattan.mode = "fallback";
+    if (const std::optional<Eigen::Matrix3d> R = manhattanRotation(frame, rep.manhattan)) {
+      ScopedStage st(timings, "manhattan_tracking");
+      Frame attempt = frame;
+      useDirect_ = true;
+      if (trackWithManhattanRotation(attempt, *R, rep.manhattan)) {
+        frame = std::move(attempt);
+        ok = manhattanTracked = true;
+        rep.method = "manhattan";
+        rep.manhattan.mode = "manhattan";
+        rep.inliers = rep.matches = frame.numMatchedInliers();
+      } else {
+        measured_.clear();
       }
-      if (!ok) {
-        ok = trackReferenceKeyFrame(frame);
-        rep.method = "reference";
+      useDirect_ = false;
+    }
+    frame.rotationPrior.reset();
+  }
+  if (!manhattanTracked) {
+    {
+      ScopedStage st(timings, "matching");
+      useDirect_ = true;  // the motion-model, reference and local-map attempts; relocalization has no pose guess
+      if (!lost_) {
+        if (haveVelocity_) {
+          ok = trackWithMotionModel(frame);
+          rep.method = "motion";
+        }
+        if (!ok) {
+          ok = trackReferenceKeyFrame(frame);
+          rep.method = "reference";
+        }
       }
     }
-  }
-  if (!ok) {
-    ScopedStage st(timings, "relocalization");
-    useDirect_ = false;
-    ok = relocalize(frame);
-    useDirect_ = true;
-    rep.method = "relocalization";
-    if (ok) {
-      relocalized = true;
-      relocalizedEver_ = true;
-      lastRelocFrame_ = frame.index;
+    if (!ok) {
+      ScopedStage st(timings, "relocalization");
+      useDirect_ = false;
+      ok = relocalize(frame);
+      useDirect_ = true;
+      rep.method = "relocalization";
+      if (ok) {
+        relocalized = true;
+        relocalizedEver_ = true;
+        lastRelocFrame_ = frame.index;
+      }
     }
-  }
-  rep.matches = frame.numMatchedInliers();
+    rep.matches = frame.numMatchedInliers();
 
-  if (ok) {
-    ScopedStage st(timings, "local_map");
-    int cands = 0;
-    const int inliers = trackLocalMap(frame, &cands);
-    rep.inliers = inliers;
-    rep.localMapPoints = cands;
-    const bool recentReloc = relocalizedEver_ && frame.index < lastRelocFrame_ + static_cast<std::size_t>(params_.keyFrames.maxFrames);
-    ok = poseSupported(inliers, recentReloc ? params_.minInliersAfterReloc : params_.minLocalMapInliers);
+    if (ok) {
+      ScopedStage st(timings, "local_map");
+      int cands = 0;
+      const int inliers = trackLocalMap(frame, &cands);
+      rep.inliers = inliers;
+      rep.localMapPoints = cands;
+      const bool recentReloc = relocalizedEver_ && frame.index < lastRelocFrame_ + static_cast<std::size_t>(params_.keyFrames.maxFrames);
+      ok = poseSupported(inliers, recentReloc ? params_.minInliersAfterReloc : params_.minLocalMapInliers);
+    }
   }
   useDirect_ = false;
 
@@ -557,6 +725,8 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
 
   lost_ = false;
   rep.status = relocalized ? FrameStatus::Relocalized : FrameStatus::Tracking;
+  // A map initialized (or loaded) without a Manhattan frame takes the first tracked frame's as the global one.
+  if (manhattan_ && !R_world_mf_ && frame.R_cam_mf) R_world_mf_ = frame.T_cam_world.linear().transpose() * *frame.R_cam_mf;
   // §3.4.2: "with each new frame we update the semantic class probabilities, the depth mean, depth variance
   // and the inlier model parameters" of every point the frame measured, before the keyframe decision reads
   // which points are active.

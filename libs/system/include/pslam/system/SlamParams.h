@@ -4,7 +4,8 @@
 //   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
 //   [LocalMapping] mapping::LocalMappingParams   [PointModel] landmarks::PointModelParams   [System] SystemParams
-//   [DirectFeatures] direct::DirectFeaturesParams
+//   [DirectFeatures] direct::DirectFeaturesParams   [Manhattan] tracking::ManhattanPathParams
+//   [ManhattanTracker] manhattan::ManhattanParams
 // An unknown section or key is an error naming the closest valid one.
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "pslam/direct/DirectFrontEnd.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/landmarks/PointModel.h"
+#include "pslam/manhattan/ManhattanTracker.h"
 #include "pslam/mapping/LocalMapper.h"
 #include "pslam/optimize/Params.h"
 #include "pslam/tracking/MonocularInitializer.h"
@@ -33,7 +35,8 @@ struct SystemParams {
     using namespace pslam::params;
     PSLAM_FIELD(v, threaded, anyValue, "local mapping in a second thread (live use); false = deterministic");
     PSLAM_FIELD(v, poseSolver, nonEmpty, "tracking pose solver (full6dof = motion-only BA)");
-    PSLAM_FIELD(v, initializer, nonEmpty, "map initializer (twoView = H/F two-view initialization)");
+    PSLAM_FIELD(v, initializer, nonEmpty,
+                "map initializer (twoView = H/F two-view initialization; manhattan = §4.4.1, H/F without a Manhattan frame)");
   }
   PSLAM_PARAMS("System")
 };
@@ -50,6 +53,8 @@ struct SlamParams {
   landmarks::PointModelParams pointModel;  ///< default heuristic (ORB-SLAM*)
   SystemParams system;
   direct::DirectFeaturesParams directFeatures;  ///< off by default (ORB-SLAM*)
+  tracking::ManhattanPathParams manhattan;       ///< off by default (ORB-SLAM*)
+  manhattan::ManhattanParams manhattanTracker;   ///< the mean shift of the Manhattan path (Table 4.1)
 
   template <class V>
   void visitSections(V& v) {
@@ -62,6 +67,8 @@ struct SlamParams {
     v.section("PointModel", pointModel);
     v.section("System", system);
     v.section("DirectFeatures", directFeatures);
+    v.section("Manhattan", manhattan);
+    v.section("ManhattanTracker", manhattanTracker);
   }
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);

@@ -35,6 +35,9 @@ struct Frame {
   cv::Mat normals;          ///< NORMALS, CV_8UC3 (Manhattan frame, §4.4)
   cv::Mat depth;            ///< DEPTH, CV_16UC1
   double depthUnits = 0.0;  ///< metres per depth unit
+  /// The frame's Manhattan frame (§4.4): the three axes in camera coordinates as columns (R_cam_mf of the
+  /// mean-shift tracker, labels kept from frame to frame), set when its NORMALS gave a valid estimate.
+  std::optional<Eigen::Matrix3d> R_cam_mf;
   /// Rotation prior R_cam_world for this frame (e.g. from its Manhattan frame), passed to the pose solver.
   std::optional<Eigen::Matrix3d> rotationPrior;
 

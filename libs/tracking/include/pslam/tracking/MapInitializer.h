@@ -2,8 +2,9 @@
 // Swappable map initializer used by the tracker until a map exists, chosen by name ([System] initializer)
 // through a factory:
 //   twoView  ORB-SLAM's monocular initialization (parallel H/F model selection, Algorithm 1; MonocularInitializer)
-// The Manhattan decoupled initializer of thesis §4.4.1 (rotation from the Manhattan frames, translation by
-// eq. 4.1) registers here too; tests register their own with registerMapInitializer().
+//   manhattan  the decoupled initializer of thesis §4.4.1 (rotation from the Manhattan frames, translation by
+//              eq. 4.1; ManhattanInitializer), H/F for frames without a Manhattan frame
+// Tests register their own with registerMapInitializer().
 #include <functional>
 #include <memory>
 #include <random>

@@ -13,12 +13,45 @@
 
 #include "pslam/features/Matching.h"
 #include "pslam/geometry/TwoViewInitializer.h"
+#include "pslam/manhattan/TranslationSolver.h"
 #include "pslam/map/Map.h"
 #include "pslam/optimize/Params.h"
 #include "pslam/tracking/Frame.h"
 #include "pslam/tracking/MapInitializer.h"
 
 namespace pslam::tracking {
+
+/// [Initializer] manhattan.*: the decoupled initializer of §4.4.1 (ManhattanInitializer).
+struct ManhattanInitParams {
+  /// With the rotation known, far fewer pairs fix the translation than the H/F models need (§4.4.1).
+  int minMatches = 20;
+  int minInliers = 15;
+  int minTriangulated = 15;
+  int minMapPoints = 15;
+  /// A triangulated point needs this parallax (ORB-SLAM's two-view test: 1 deg).
+  double minParallaxDeg = 1.0;
+  /// Median rotation-compensated parallax of the pairs below this: rotation only, the frame is skipped.
+  double minMedianParallaxDeg = 0.3;
+  /// Largest rotation between the two frames (the Manhattan frames' labels are matched within it).
+  double maxRotationDeg = 40.0;
+  /// Frames skipped (too few matches / inliers / points) before the reference is replaced (§4.4.1).
+  int maxSkippedFrames = 30;
+  manhattan::TranslationRansacParams ransac;
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, minMatches, atLeast(2), "SearchForInitialization pairs needed around the rotated reference keypoints");
+    PSLAM_FIELD(v, minInliers, atLeast(2), "eq. 4.1 RANSAC inliers needed, else the frame is skipped");
+    PSLAM_FIELD(v, minTriangulated, atLeast(2), "inlier pairs triangulated with enough parallax, else the frame is skipped");
+    PSLAM_FIELD(v, minMapPoints, atLeast(1), "points after global BA, else the initial map is discarded");
+    PSLAM_FIELD(v, minParallaxDeg, inRightOpen(0, 90), "parallax a triangulated point needs (deg)");
+    PSLAM_FIELD(v, minMedianParallaxDeg, inRightOpen(0, 90), "median parallax of the pairs below this = rotation only (deg)");
+    PSLAM_FIELD(v, maxRotationDeg, inOpen(0, 45), "largest rotation between the initialization frames (deg)");
+    PSLAM_FIELD(v, maxSkippedFrames, atLeast(1), "skipped frames before the reference frame is replaced");
+    PSLAM_NESTED(v, ransac);
+  }
+};
 
 struct InitializerParams {
   int minKeypoints = 100;
@@ -37,6 +70,7 @@ struct InitializerParams {
   /// (p_min^static = 0.8 in the thesis' system); 0 (default, ORB-SLAM*) = every keypoint.
   double minStaticProbability = 0.0;
   geometry::TwoViewParams twoView;
+  ManhattanInitParams manhattan;
 
   template <class V>
   void visitFields(V& v) {
@@ -52,6 +86,7 @@ struct InitializerParams {
     PSLAM_FIELD(v, minStaticProbability, inClosed(0, 1),
                 "with SEMANTIC: only keypoints with P(static) >= this initialize the map (§3.4.1: 0.8); 0 = all");
     v.flat(twoView);
+    PSLAM_NESTED(v, manhattan);
   }
   PSLAM_PARAMS("Initializer")
 };
@@ -78,6 +113,11 @@ class MonocularInitializer : public MapInitializer {
   std::optional<Frame> reference_;
   std::vector<cv::Point2f> prevMatched_;
 };
+
+/// §3.4.1: keeps the pairs whose keypoints both have P(static) >= minStaticProbability (a keypoint without
+/// semantics counts as static); minStaticProbability <= 0 keeps every pair.
+void keepStaticMatches(const Frame& reference, const Frame& current, double minStaticProbability,
+                       std::vector<features::IndexMatch>& matches);
 
 /// The map keyframe of a tracked frame (measurements only; associations are added by the caller).
 map::KeyFrame toKeyFrame(const Frame& frame);

@@ -69,6 +69,52 @@ struct TrackerParams {
   PSLAM_PARAMS("Tracking")
 };
 
+/// [Manhattan]: the structured-scene path of thesis §4.4 (rotation from the Manhattan frame, translation only,
+/// pose validation with fallback to 6-DoF tracking). The mean-shift tracker's own keys are [ManhattanTracker].
+struct ManhattanPathParams {
+  bool enabled = false;
+  /// Pixel stride when collecting the NORMALS of a frame for the mean shift (the tracker subsamples further).
+  int normalStride = 4;
+  /// The Manhattan rotation is used only when it is within this angle of the motion model's prediction.
+  double maxPriorDeviationDeg = 10.0;
+  /// Pose validation (§4.4.2): the points of the last `validationKeyFrames` keyframes in view at the estimated
+  /// pose; the estimate holds when this many of them and this share are inliers of the frame (matched, with a
+  /// whitened reprojection error under chi2 5.991).
+  int validationKeyFrames = 3;
+  int validationMinInliers = 20;
+  double validationMinRatio = 0.2;
+  /// §4.4.2 "Pose Refinement": the local-map step optimizes all 6 DoF from the Manhattan estimate (true), or the
+  /// translation only with the Manhattan rotation kept (false).
+  bool refinePose = true;
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, enabled, anyValue, "Manhattan rotation + translation-only tracking, with fallback (§4.4); needs NORMALS");
+    PSLAM_FIELD(v, normalStride, atLeast(1), "pixel stride of the normals given to the mean shift");
+    PSLAM_FIELD(v, maxPriorDeviationDeg, inOpen(0, 45), "Manhattan rotation used only within this angle of the prediction");
+    PSLAM_FIELD(v, validationKeyFrames, atLeast(1), "n of §4.4.2: points of the last n keyframes validate the pose");
+    PSLAM_FIELD(v, validationMinInliers, atLeast(0), "... of which this many must be inliers");
+    PSLAM_FIELD(v, validationMinRatio, inClosed(0, 1), "... and this share of those in view");
+    PSLAM_FIELD(v, refinePose, anyValue, "local-map step: 6 DoF from the Manhattan estimate (true) or translation only");
+  }
+  PSLAM_PARAMS("Manhattan")
+};
+
+/// What the Manhattan path did in one frame (report.json).
+struct ManhattanFrameReport {
+  bool normals = false;         ///< the frame had a NORMALS channel (and the path is enabled)
+  bool frameValid = false;      ///< the mean shift gave a valid Manhattan frame
+  int observedAxes = 0;
+  std::string mode = "none";    ///< manhattan | fallback | none (path disabled or not tracking)
+  double priorDeviationDeg = -1;  ///< angle between the Manhattan rotation and the motion model's prediction
+  double refinementDeg = -1;    ///< rotation the 6-DoF refinement applied to the Manhattan rotation
+  int validationInView = 0;     ///< points of the last n keyframes in view at the Manhattan pose
+  int validationInliers = 0;    ///< ... that are inliers of the frame
+  std::string reason;           ///< why the Manhattan pose was not used (empty when it was)
+  nlohmann::json toJson() const;
+};
+
 enum class FrameStatus { Initializing, Tracking, Lost, Relocalized };
 const char* toString(FrameStatus status);
 
@@ -85,6 +131,7 @@ struct FrameReport {
   int inactiveMatches = 0;     ///< final matches of points it does not (kept as measurements only, §3.4.2)
   int modelUpdates = 0;        ///< depth measurements applied to the points' models in this frame (§3.4.2)
   DirectFrameCounts direct;    ///< direct points (all 0 without a DirectPointSource)
+  ManhattanFrameReport manhattan;  ///< the Manhattan path (§4.4; mode "none" when disabled)
   bool keyFrame = false;
   std::size_t mapPoints = 0, keyFrames = 0;
   std::string message;
@@ -128,6 +175,12 @@ class Tracker {
   void setMapUpdatesEnabled(bool enabled) { mapUpdates_ = enabled; }
   /// Direct points join pose optimization through `source` (§3.4.2); null (default) = keypoints only.
   void setDirectPointSource(std::shared_ptr<DirectPointSource> source) { direct_ = std::move(source); }
+  /// §4.4.2: frames with a Manhattan frame (Frame::R_cam_mf) are first tracked with its rotation and `solver`
+  /// optimizing the translation only; the estimate is validated and, when it fails, the frame is tracked by the
+  /// 6-DoF path. The global Manhattan frame is the initial reference frame's (or the first tracked one's).
+  void enableManhattanPath(ManhattanPathParams params, std::unique_ptr<PoseSolver> solver);
+  /// R_world_mf of the global Manhattan frame, once known.
+  const std::optional<Eigen::Matrix3d>& worldManhattanFrame() const { return R_world_mf_; }
   bool mapUpdatesEnabled() const { return mapUpdates_; }
   /// The map was replaced by a loaded one: tracking is initialized and lost, the next frame relocalizes.
   void onMapLoaded();
@@ -157,6 +210,12 @@ class Tracker {
   /// Returns inliers after local-map tracking.
   int trackLocalMap(Frame& frame, int* localCandidates = nullptr);
   bool relocalize(Frame& frame);
+  /// §4.4.2: tracks `frame` with rotation `R_cam_world` fixed (motion-model search, local map) and validates the
+  /// pose; fills `report`. False when the estimate is rejected (the caller falls back to 6-DoF tracking).
+  bool trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_cam_world, ManhattanFrameReport& report);
+  /// The rotation prior R_cam_world of `frame` from its Manhattan frame and the global one, when it is within
+  /// maxPriorDeviationDeg of the motion model's prediction; else nullopt with the reason in `report`.
+  std::optional<Eigen::Matrix3d> manhattanRotation(const Frame& frame, ManhattanFrameReport& report) const;
   map::KeyFrameId createKeyFrame(const Frame& frame);
   /// §3.4.2: applies the measurements of the frame's matches (every match that entered pose optimization in
   /// the tracking attempt that succeeded, outliers of the pose included) to the points' models. Returns the
@@ -165,6 +224,10 @@ class Tracker {
 
  private:
   void updateLocalKeyFrames(const Frame& frame);
+  /// Projection search of the last frame's points at frame.T_cam_world (motion-model matching); returns matches.
+  int searchLastFrame(Frame& frame);
+  /// The pose solver of this frame: the translation-only one when the frame has a rotation prior.
+  const PoseSolver& solverFor(const Frame& frame) const;
   /// Every match of `frame` that entered pose optimization (keypoint per point, the last one wins), so that
   /// outliers of the pose are measurements of their points too.
   void recordMeasurements(const Frame& frame);
@@ -192,6 +255,13 @@ class Tracker {
   StageTimings* timings_ = nullptr;  ///< of the current track() call
   std::map<map::MapPointId, std::size_t> measured_;  ///< of the current track() call (recordMeasurements)
   std::shared_ptr<DirectPointSource> direct_;
+  bool manhattan_ = false;
+  ManhattanPathParams manhattanParams_;
+  std::unique_ptr<PoseSolver> manhattanSolver_;
+  std::optional<Eigen::Matrix3d> R_world_mf_;
+  /// Visibility counters of local-map tracking are held back while a Manhattan attempt may still be rejected.
+  bool deferCounters_ = false;
+  std::vector<map::MapPointId> deferredVisible_, deferredFound_;
   bool useDirect_ = false;              ///< direct points take part in the current attempt (not relocalization)
   bool finalOptimization_ = false;      ///< the local-map pose optimization is running
   int directFactors_ = 0;               ///< of the last optimizeFramePose
