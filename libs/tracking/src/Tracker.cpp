@@ -225,7 +225,7 @@ int Tracker::optimizeFramePose(Frame& frame) {
   return inliers;
 }
 
-int Tracker::searchLastFrame(Frame& frame) {
+int Tracker::searchLastFrame(Frame& frame, float widestFactor) {
   std::vector<ProjectionCandidate> cands;
   for (std::size_t i = 0; i < last_.size(); ++i) {
     const map::MapPointId id = last_.mapPointIds[i];
@@ -248,9 +248,10 @@ int Tracker::searchLastFrame(Frame& frame) {
     return searchByProjection(frame, frame.T_cam_world, cands, sp);
   };
   int n = search(params_.motionModelRadius);
-  if (n < params_.minMotionMatches) {
+  // ORB-SLAM widens the window once (2x); the Manhattan path, whose rotation is known, further.
+  for (float factor = 2.f; n < params_.minMotionMatches && factor <= widestFactor; factor *= 2.f) {
     frame.resetMatches();
-    n = search(2 * params_.motionModelRadius);
+    n = search(factor * params_.motionModelRadius);
   }
   return n;
 }
@@ -301,13 +302,13 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   const Eigen::Vector3d centre = -(predicted.linear().transpose() * predicted.translation());
   frame.T_cam_world.linear() = R_cam_world;
   frame.T_cam_world.translation() = -(R_cam_world * centre);
-  const int n = searchLastFrame(frame);
-  if (n < params_.minMotionMatches && !direct_) {
-    report.reason = "too few motion-model matches (" + std::to_string(n) + ")";
-    return false;
-  }
-  if (!poseSupported(optimizeFramePose(frame), params_.minPoseInliers)) {
-    report.reason = "too few inliers with the Manhattan rotation";
+  // Motion-model search first; when the frame moved too far for it, the reference keyframe's descriptor matches
+  // (with the rotation fixed, a few of them fix the translation).
+  const int n = searchLastFrame(frame, static_cast<float>(manhattanParams_.searchRadiusFactor));
+  bool found = (n >= params_.minMotionMatches || direct_) && poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+  if (!found) found = trackReferenceKeyFrame(frame);
+  if (!found) {
+    report.reason = "too few matches with the Manhattan rotation (motion model " + std::to_string(n) + ")";
     return false;
   }
   // §4.4.2 "Pose Refinement": the local map refines the Manhattan estimate in all 6 DoF ("not limited to MW
@@ -317,7 +318,7 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   const int inliers = trackLocalMap(frame);
   deferCounters_ = false;
   report.refinementDeg = manhattan::rotationAngleDeg(R_cam_world, frame.T_cam_world.linear());
-  if (!poseSupported(inliers, params_.minLocalMapInliers)) {
+  if (!poseSupported(inliers, manhattanParams_.minInliers)) {
     report.reason = "too few local-map inliers with the Manhattan rotation (" + std::to_string(inliers) + ")";
     return false;
   }

@@ -76,12 +76,18 @@ struct ManhattanPathParams {
   /// Pixel stride when collecting the NORMALS of a frame for the mean shift (the tracker subsamples further).
   int normalStride = 4;
   /// The Manhattan rotation is used only when it is within this angle of the motion model's prediction.
-  double maxPriorDeviationDeg = 10.0;
+  double maxPriorDeviationDeg = 20.0;
   /// Pose validation (§4.4.2): the points of the last `validationKeyFrames` keyframes in view at the estimated
   /// pose; the estimate holds when this many of them and this share are inliers of the frame (matched, with a
   /// whitened reprojection error under chi2 5.991).
+  /// Local-map inliers a Manhattan pose needs (the rotation is known: far fewer than 6-DoF tracking's
+  /// minLocalMapInliers carry the 3-DoF translation, §4.4.2).
+  int minInliers = 15;
+  /// With the rotation known, the motion-model search window may grow to this x motionModelRadius (ORB-SLAM: 2),
+  /// since only the translation's flow is left to cover.
+  int searchRadiusFactor = 4;
   int validationKeyFrames = 3;
-  int validationMinInliers = 20;
+  int validationMinInliers = 10;
   double validationMinRatio = 0.2;
   /// §4.4.2 "Pose Refinement": the local-map step optimizes all 6 DoF from the Manhattan estimate (true), or the
   /// translation only with the Manhattan rotation kept (false).
@@ -93,6 +99,8 @@ struct ManhattanPathParams {
     PSLAM_FIELD(v, enabled, anyValue, "Manhattan rotation + translation-only tracking, with fallback (§4.4); needs NORMALS");
     PSLAM_FIELD(v, normalStride, atLeast(1), "pixel stride of the normals given to the mean shift");
     PSLAM_FIELD(v, maxPriorDeviationDeg, inOpen(0, 45), "Manhattan rotation used only within this angle of the prediction");
+    PSLAM_FIELD(v, minInliers, atLeast(3), "local-map inliers a Manhattan pose needs");
+    PSLAM_FIELD(v, searchRadiusFactor, inClosed(2, 16), "widest motion-model search window, x motionModelRadius");
     PSLAM_FIELD(v, validationKeyFrames, atLeast(1), "n of §4.4.2: points of the last n keyframes validate the pose");
     PSLAM_FIELD(v, validationMinInliers, atLeast(0), "... of which this many must be inliers");
     PSLAM_FIELD(v, validationMinRatio, inClosed(0, 1), "... and this share of those in view");
@@ -225,7 +233,8 @@ class Tracker {
  private:
   void updateLocalKeyFrames(const Frame& frame);
   /// Projection search of the last frame's points at frame.T_cam_world (motion-model matching); returns matches.
-  int searchLastFrame(Frame& frame);
+  /// The window grows by 2x while there are too few matches, up to `widestFactor` x motionModelRadius.
+  int searchLastFrame(Frame& frame, float widestFactor = 2.f);
   /// The pose solver of this frame: the translation-only one when the frame has a rotation prior.
   const PoseSolver& solverFor(const Frame& frame) const;
   /// Every match of `frame` that entered pose optimization (keypoint per point, the last one wins), so that
