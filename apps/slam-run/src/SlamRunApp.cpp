@@ -9,6 +9,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/core/Progress.h"
 #include "pslam/core/Trajectory.h"
+#include "pslam/eval/Plot.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/core/AtomicFile.h"
 #include "pslam/map/MapIO.h"
@@ -102,6 +103,36 @@ std::string SlamRunSummary::toText() const {
   return os.str();
 }
 
+namespace {
+void plotManhattanModes(const nlohmann::json& frames, const std::filesystem::path& png) {
+  // One row per outcome over the frame index: Manhattan path (2), 6-DoF fallback (1), no pose (0).
+  std::vector<double> xm, ym, xf, yf, xn, yn;
+  for (const auto& f : frames) {
+    const double i = f["index"].get<double>();
+    const bool tracked = f["status"] == "tracking" || f["status"] == "relocalized";
+    const std::string mode = f["manhattan"]["mode"];
+    if (tracked && mode == "manhattan") {
+      xm.push_back(i);
+      ym.push_back(2);
+    } else if (tracked) {
+      xf.push_back(i);
+      yf.push_back(1);
+    } else {
+      xn.push_back(i);
+      yn.push_back(0);
+    }
+  }
+  eval::Plot plot("tracking path per frame (2 = Manhattan rotation, 1 = 6-DoF fallback, 0 = no pose)", "frame",
+                  "path");
+  plot.style().height = 360;
+  plot.setYRange(-0.5, 2.5);
+  plot.addScatter(xm, ym, "Manhattan (" + std::to_string(xm.size()) + ")", eval::colors::green(), 3);
+  plot.addScatter(xf, yf, "fallback (" + std::to_string(xf.size()) + ")", eval::colors::orange(), 3);
+  plot.addScatter(xn, yn, "no pose (" + std::to_string(xn.size()) + ")", eval::colors::red(), 3);
+  plot.save(png);
+}
+}  // namespace
+
 SlamRunApp::SlamRunApp(SlamRunOptions options) : options_(std::move(options)) {}
 
 SlamRunSummary SlamRunApp::run() {
@@ -125,6 +156,8 @@ SlamRunSummary SlamRunApp::run() {
   AtomicOutput& mapOut = outputs.add(options_.outDir / "map.slammap");
   AtomicOutput& depthsOut = outputs.add(options_.outDir / "depths.txt");
   AtomicOutput& reportOut = outputs.add(options_.outDir / "report.json");
+  // §4.4: which path tracked each frame (a picture of where the Manhattan rotation held and where it did not).
+  AtomicOutput* modesOut = params.manhattan.enabled ? &outputs.add(options_.outDir / "manhattan_modes.png") : nullptr;
 
   const std::size_t total = datasets::RawlogReader::countFrames(options_.rawlog);
   require(total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
@@ -224,6 +257,9 @@ SlamRunSummary SlamRunApp::run() {
   report["first"] = options_.first;
   report["last"] = lastIndex;
   report["summary"] = sum.toJson();
+  for (const auto& [key, value] : counts.items())  // the System's counters the app summary does not repeat
+    if (!report["summary"].contains(key)) report["summary"][key] = value;
+  if (modesOut) plotManhattanModes(frames, modesOut->tempPath());
   if (!sum.hasMap()) report["warning"] = "initialization never succeeded: the trajectory is empty";
   else if (sum.mapLoaded && sum.framesLocalized == 0) report["warning"] = "no frame was localized in the loaded map";
   writeOutputFile(reportOut, [&](std::ostream& os) { os << report.dump(1) << "\n"; });

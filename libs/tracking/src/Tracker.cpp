@@ -305,7 +305,9 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   // Motion-model search first; when the frame moved too far for it, the reference keyframe's descriptor matches
   // (with the rotation fixed, a few of them fix the translation).
   const int n = searchLastFrame(frame, static_cast<float>(manhattanParams_.searchRadiusFactor));
-  bool found = (n >= params_.minMotionMatches || direct_) && poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+  // With the rotation fixed, the 3-DoF translation needs fewer matches than 6-DoF tracking's minMotionMatches.
+  const int enough = std::min(params_.minMotionMatches, manhattanParams_.minInliers);
+  bool found = (n >= enough || direct_) && poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
   if (!found) found = trackReferenceKeyFrame(frame);
   if (!found) {
     report.reason = "too few matches with the Manhattan rotation (motion model " + std::to_string(n) + ")";
