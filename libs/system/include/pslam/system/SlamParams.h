@@ -4,7 +4,7 @@
 //   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
 //   [LocalMapping] mapping::LocalMappingParams   [PointModel] landmarks::PointModelParams   [System] SystemParams
-//   [DirectFeatures] direct::DirectFeaturesParams
+//   [DirectFeatures] direct::DirectFeaturesParams   [Lines] lines::LinesParams
 // An unknown section or key is an error naming the closest valid one.
 #include <string>
 #include <vector>
@@ -15,6 +15,7 @@
 #include "pslam/direct/DirectFrontEnd.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/landmarks/PointModel.h"
+#include "pslam/lines/LineFrontEnd.h"
 #include "pslam/mapping/LocalMapper.h"
 #include "pslam/optimize/Params.h"
 #include "pslam/tracking/MonocularInitializer.h"
@@ -50,6 +51,7 @@ struct SlamParams {
   landmarks::PointModelParams pointModel;  ///< default heuristic (ORB-SLAM*)
   SystemParams system;
   direct::DirectFeaturesParams directFeatures;  ///< off by default (ORB-SLAM*)
+  lines::LinesParams lines;                     ///< [Lines], off by default
 
   template <class V>
   void visitSections(V& v) {
@@ -62,6 +64,7 @@ struct SlamParams {
     v.section("PointModel", pointModel);
     v.section("System", system);
     v.section("DirectFeatures", directFeatures);
+    v.section("Lines", lines);
   }
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);
