@@ -40,10 +40,13 @@ LineFeatures LineExtractor::extract(const cv::Mat& grey) const {
   const double sx = static_cast<double>(grey.cols) / level.cols, sy = static_cast<double>(grey.rows) / level.rows;
   // Pixel centres: full = (level + 0.5) * scale - 0.5.
   auto toFull = [&](float x, float y) { return Eigen::Vector2d((x + 0.5) * sx - 0.5, (y + 0.5) * sy - 0.5); };
-  std::vector<LineSegment> distorted;
+  std::vector<LineSegment> distorted, atLevel;
   for (const cv::Vec4f& l : raw) {
     LineSegment seg{toFull(l[0], l[1]), toFull(l[2], l[3])};
-    if (seg.length() >= params_.minLength && seg.length() > 1.0) distorted.push_back(seg);
+    if (seg.length() >= params_.minLength && seg.length() > 1.0) {
+      distorted.push_back(seg);
+      atLevel.push_back({Eigen::Vector2d(l[0], l[1]), Eigen::Vector2d(l[2], l[3])});
+    }
   }
   // The N longest (ties in detection order: deterministic).
   std::vector<std::size_t> order(distorted.size());
@@ -53,11 +56,12 @@ LineFeatures LineExtractor::extract(const cv::Mat& grey) const {
   if (static_cast<int>(order.size()) > params_.maxLines) order.resize(static_cast<std::size_t>(params_.maxLines));
   if (order.empty()) return out;
 
-  // LBD (eq. 2.56) on the full-resolution image, one octave; KeyLines filled as LSDDetector fills them.
+  // LBD (eq. 2.56) on the detection level, one octave (a quarter of the full image's cost at scale 0.5);
+  // KeyLines filled as LSDDetector fills them.
   std::vector<cv::line_descriptor::KeyLine> keylines;
   keylines.reserve(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) {
-    const LineSegment& seg = distorted[order[k]];
+    const LineSegment& seg = atLevel[order[k]];
     cv::line_descriptor::KeyLine kl;
     kl.startPointX = static_cast<float>(seg.start.x());
     kl.startPointY = static_cast<float>(seg.start.y());
@@ -72,7 +76,7 @@ LineFeatures LineExtractor::extract(const cv::Mat& grey) const {
     kl.octave = 0;
     kl.class_id = static_cast<int>(k);
     kl.pt = cv::Point2f(static_cast<float>(seg.midpoint().x()), static_cast<float>(seg.midpoint().y()));
-    kl.response = kl.lineLength / static_cast<float>(std::max(grey.cols, grey.rows));
+    kl.response = kl.lineLength / static_cast<float>(std::max(level.cols, level.rows));
     kl.size = std::abs((kl.endPointX - kl.startPointX) * (kl.endPointY - kl.startPointY));
     kl.numOfPixels = static_cast<int>(std::ceil(std::max(std::abs(seg.end.x() - seg.start.x()),
                                                          std::abs(seg.end.y() - seg.start.y()))));
@@ -83,7 +87,7 @@ LineFeatures LineExtractor::extract(const cv::Mat& grey) const {
   bp.widthOfBand_ = params_.lbdBandWidth;
   const cv::Ptr<cv::line_descriptor::BinaryDescriptor> lbd = cv::line_descriptor::BinaryDescriptor::createBinaryDescriptor(bp);
   cv::Mat descriptors;
-  lbd->compute(grey, keylines, descriptors);
+  lbd->compute(level, keylines, descriptors);
   require(descriptors.empty() || (descriptors.type() == CV_8U && descriptors.cols == 32), "LineExtractor",
           "LBD returned descriptors of an unexpected type");
 

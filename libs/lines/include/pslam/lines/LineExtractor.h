@@ -4,9 +4,10 @@
 // undistorted with the project's camera model (geometry::PinholeCamera) so that every geometric step works on
 // the ideal pinhole projection of eq. 2.7.
 //
-// Detection runs on the image resampled by detectionScale (INTER_AREA): LSD at 640x480 costs about 40 ms of one
-// core, at half resolution about 4 ms (doc/slam.md); the endpoints are scaled back to full-resolution pixels and
-// their noise is that of the detection level (pixelSigma()). The descriptors are computed on the full image.
+// Detection and description run on one level, the image resampled by detectionScale (INTER_AREA): LSD at 640x480
+// costs about 40 ms of one core, at half resolution about 5 ms, LBD of 40 segments about 8 ms on the full image and
+// 2 ms on the half one (doc/slam.md); the endpoints are scaled back to full-resolution pixels and their noise is
+// that of the detection level (pixelSigma()).
 #include <vector>
 
 #include <Eigen/Core>
@@ -22,7 +23,7 @@ struct LineExtractorParams {
   int maxLines = 40;             ///< N_F^Line of Table 4.1: the longest segments kept per frame
   double minLength = 30.0;       ///< full-resolution pixels: shorter segments are dropped
   double detectionScale = 0.5;   ///< LSD runs on the image resized by this factor (1 = full resolution)
-  int lbdBandWidth = 7;          ///< LBD band width W (pixels)
+  int lbdBandWidth = 7;          ///< LBD band width W (pixels of the detection level)
 
   template <class V>
   void visitFields(V& v) {
@@ -30,7 +31,7 @@ struct LineExtractorParams {
     PSLAM_FIELD(v, maxLines, atLeast(1), "longest LSD segments kept per frame (Table 4.1: 40)");
     PSLAM_FIELD(v, minLength, atLeast(0), "minimum segment length (full-resolution pixels)");
     PSLAM_FIELD(v, detectionScale, inLeftOpen(0, 1), "LSD runs on the image resized by this factor");
-    PSLAM_FIELD(v, lbdBandWidth, inClosed(3, 15), "LBD band width (pixels)");
+    PSLAM_FIELD(v, lbdBandWidth, inClosed(3, 15), "LBD band width (pixels of the detection level)");
   }
   PSLAM_PARAMS("Lines")
 };
