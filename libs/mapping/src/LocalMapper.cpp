@@ -546,15 +546,24 @@ optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId
   bool anyFree = false;
   for (const auto& [id, k] : problem.keyframes) anyFree = anyFree || !k.fixed;
   if (problem.observations.empty() || !anyFree) return {};
-  if (baFactors_) problem.factors = baFactors_(map_, problem);
+  // Each hook's factors follow the previous hook's: [begin_h, begin_h+1) is hook h's range.
+  std::vector<std::size_t> hookBegin;
+  for (const BAHooks& h : baHooks_) {
+    hookBegin.push_back(problem.factors.size());
+    if (!h.factors) continue;
+    std::vector<std::shared_ptr<optimize::BAFactor>> f = h.factors(map_, problem);
+    problem.factors.insert(problem.factors.end(), f.begin(), f.end());
+  }
+  hookBegin.push_back(problem.factors.size());
   const optimize::BAResult result = optimize::localBundleAdjustment(problem, params_.ba);
   if (resultOut) *resultOut = result;
-  if (baFactorsApplied_) {
-    std::vector<bool> outliers(problem.factors.size(), false);
-    for (std::size_t i : result.factorOutliers)
-      if (i < outliers.size()) outliers[i] = true;
-    baFactorsApplied_(outliers);
-  }
+  std::vector<bool> outliers(problem.factors.size(), false);
+  for (std::size_t i : result.factorOutliers)
+    if (i < outliers.size()) outliers[i] = true;
+  for (std::size_t h = 0; h < baHooks_.size(); ++h)
+    if (baHooks_[h].applied)
+      baHooks_[h].applied(std::vector<bool>(outliers.begin() + static_cast<long>(hookBegin[h]),
+                                            outliers.begin() + static_cast<long>(hookBegin[h + 1])));
   const optimize::MapUpdateSummary summary = optimize::applyResult(map_, problem, result, true);
   // §3.4.3: "after the bundle adjustment we update our probabilistic model with the refined depth
   // estimates": the filter mean takes the refined inverse depth; its variance and inlier counts are kept.

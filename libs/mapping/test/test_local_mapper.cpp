@@ -10,6 +10,8 @@
 
 #include "pslam/core/Error.h"
 #include "pslam/mapping/LocalMapper.h"
+#include "pslam/optimize/PoseParameterization.h"
+#include <ceres/autodiff_cost_function.h>
 #include "SyntheticScene.h"
 
 namespace pslam::mapping {
@@ -343,6 +345,77 @@ TEST(LocalMapper, LocalBundleAdjustmentReducesReprojectionError) {
       << result.initialRmsPixels << " -> " << result.finalRmsPixels;
   EXPECT_LT(meanError(), 0.5 * before) << before << " -> " << meanError();
   EXPECT_LT((map.keyFrame(s.keyframes[5]).cameraCenter() - poseOf(5).inverse().translation()).norm(), 0.01);
+}
+
+namespace {
+/// A factor with a constant residual `value` on one keyframe (chi2 threshold 1): an outlier when |value| > 1.
+struct ConstantResidual {
+  double value;
+  template <typename T>
+  bool operator()(const T* /*pose*/, const T* /*x*/, T* r) const {
+    r[0] = T(value);
+    return true;
+  }
+};
+class ConstantFactor : public optimize::BAFactor {
+ public:
+  ConstantFactor(map::KeyFrameId kf, double value) : kf_(kf), value_(value) {}
+  std::string kind() const override { return "constant"; }
+  std::vector<map::KeyFrameId> keyframes() const override { return {kf_}; }
+  std::vector<double*> landmarkBlocks() const override { return {&x_}; }
+  ceres::CostFunction* newCostFunction() const override {
+    return new ceres::AutoDiffCostFunction<ConstantResidual, 1, optimize::kPoseSize, 1>(new ConstantResidual{value_});
+  }
+  bool landmarkFixed() const override { return true; }
+  double huberDelta() const override { return 1.0; }
+  double chi2Threshold() const override { return 1.0; }
+
+ private:
+  map::KeyFrameId kf_;
+  double value_;
+  mutable double x_ = 0.0;
+};
+}  // namespace
+
+TEST(LocalMapper, EveryBAFactorHookGetsTheOutlierFlagsOfItsOwnFactors) {
+  std::mt19937 rng(21);
+  Scene s = makeScene(150, 16);
+  map::Map map;
+  for (int slot = 0; slot < 6; ++slot) addKeyFrame(map, s, slot, rng);
+  addTruePoints(map, s, 0, 150, 0, {0, 1, 2, 3, 4, 5});
+  LocalMappingParams params = heuristicParams();
+  params.ba.maxLocalKeyFrames = 3;
+  LocalMapper mapper(map, params);
+  const map::KeyFrameId kf = s.keyframes[5];
+  std::vector<bool> first, second;
+  std::size_t seenBySecond = 0;
+  mapper.addBAFactorHooks(
+      [&](const map::Map&, const optimize::BAProblem&) {
+        return std::vector<std::shared_ptr<optimize::BAFactor>>{std::make_shared<ConstantFactor>(kf, 0.1),
+                                                                std::make_shared<ConstantFactor>(kf, 10.0)};
+      },
+      [&](const std::vector<bool>& o) { first = o; });
+  mapper.addBAFactorHooks(
+      [&](const map::Map&, const optimize::BAProblem& problem) {
+        seenBySecond = problem.factors.size();  // the first hook's factors are already there
+        return std::vector<std::shared_ptr<optimize::BAFactor>>{std::make_shared<ConstantFactor>(kf, 5.0)};
+      },
+      [&](const std::vector<bool>& o) { second = o; });
+  mapper.runLocalBundleAdjustment(kf);
+  EXPECT_EQ(seenBySecond, 2u);
+  EXPECT_EQ(first, (std::vector<bool>{false, true}));
+  EXPECT_EQ(second, (std::vector<bool>{true}));
+  // setBAFactorHooks replaces both by one.
+  first.clear();
+  second.clear();
+  mapper.setBAFactorHooks(
+      [&](const map::Map&, const optimize::BAProblem&) {
+        return std::vector<std::shared_ptr<optimize::BAFactor>>{std::make_shared<ConstantFactor>(kf, 0.5)};
+      },
+      [&](const std::vector<bool>& o) { first = o; });
+  mapper.runLocalBundleAdjustment(kf);
+  EXPECT_EQ(first, (std::vector<bool>{false}));
+  EXPECT_TRUE(second.empty());
 }
 
 /// Tracker + local mapping over `numSlots` keyframes; the first two come with an initial map of 60 points.

@@ -101,6 +101,17 @@ struct System::Impl {
       tracker->enableManhattanPath(params.manhattan,
                                    tracking::makePoseSolver("translationOnly", params.poseOptimization));
     }
+    // ---- line segments ([Lines], eq. 2.59): tracking's pose optimization and local BA use them
+    if (params.lines.enabled) {
+      lineFrontEnd = std::make_shared<lines::LineFrontEnd>(params.lines, camera);
+      tracker->setLineSource(lineFrontEnd);
+      mapper->addBAFactorHooks(
+          [this](const map::Map& m, const optimize::BAProblem& problem) {
+            return lineFrontEnd->bundleAdjustmentFactors(m, problem);
+          },
+          [this](const std::vector<bool>& outliers) { lineFrontEnd->afterBundleAdjustment(outliers); });
+    }
+    // ---- end line segments
     if (threaded) worker = std::thread([this] { mappingLoop(); });
   }
 
@@ -162,6 +173,16 @@ struct System::Impl {
                             {"fused", r.fusedPoints},
                             {"map_points", map.numMapPoints()},
                             {"keyframes", map.numKeyFrames()}});
+      // ---- line segments: new lines of the keyframe with its covisible keyframes (after local BA)
+      if (lineFrontEnd && map.hasKeyFrame(kf)) {
+        const lines::LineCreationReport l = lineFrontEnd->createLines(map, kf);
+        lineFrontEnd->prune(map);
+        mappingTimings.add("line_creation", l.ms);
+        mappingLog.back()["lines_created"] = l.created;
+        mappingLog.back()["lines_fused"] = l.fused;
+        mappingLog.back()["lines_culled"] = l.culled;
+        mappingLog.back()["lines"] = lineFrontEnd->numLines();
+      }
       // Every step of a keyframe's local mapping (issue: mapping cost per keyframe, doc/performance.md).
       mappingTimings.add("mapping_insert", r.processMs);  // keyframe insertion, model updates of its points
       mappingTimings.add("culling_points", r.cullPointsMs);
@@ -218,6 +239,7 @@ struct System::Impl {
   std::unique_ptr<tracking::Tracker> tracker;
   std::shared_ptr<direct::DirectFrontEnd> directFrontEnd;  ///< null unless [DirectFeatures] enabled
   std::unique_ptr<manhattan::ManhattanTracker> manhattanTracker;  ///< null unless [Manhattan] enabled
+  std::shared_ptr<lines::LineFrontEnd> lineFrontEnd;       ///< null unless [Lines] enabled
   StageTimings trackingTimings, mappingTimings;
   nlohmann::json mappingLog = nlohmann::json::array();
   nlohmann::json frames = nlohmann::json::array();
@@ -327,6 +349,10 @@ TrackResult System::track(const datasets::Frame& input) {
     std::unique_lock<std::mutex> mk(s.mapMutex, std::defer_lock);
     if (s.threaded) mk.lock();
     const cv::Mat grey = frame.grey, semantic = frame.semantic;
+    if (s.lineFrontEnd && s.tracker->initialized()) {  // ---- line segments: LSD + LBD of the frame
+      ScopedStage st(s.trackingTimings, "line_extraction");
+      s.lineFrontEnd->prepareFrame(frame);
+    }
     res = s.tracker->track(std::move(frame), s.trackingTimings);
     if (mf) {
       tracking::ManhattanFrameReport& m = res.report.manhattan;
@@ -339,6 +365,16 @@ TrackResult System::track(const datasets::Frame& input) {
       s.mapper->reset();
       s.newGeneration();
       if (s.directFrontEnd) s.directFrontEnd->reset();
+      if (s.lineFrontEnd) s.lineFrontEnd->reset();
+    }
+    if (s.lineFrontEnd && s.mappingEnabled && !res.newKeyFrames.empty()) {  // ---- line segments: keyframes
+      // The two keyframes of a new map: the initializer's reference frame and this one (no lines matched yet).
+      if (res.initialReferencePose) s.lineFrontEnd->reset();
+      for (std::size_t k = 0; k < res.newKeyFrames.size(); ++k) {
+        const bool reference = res.initialReferencePose && k == 0;
+        s.lineFrontEnd->addKeyFrame(res.newKeyFrames[k], reference ? res.initialReferenceGrey : grey,
+                                    !reference && !res.initialReferencePose);
+      }
     }
     if (s.directFrontEnd && s.mappingEnabled && !res.newKeyFrames.empty()) {
       // Keyframe images for the direct points; the two keyframes of a new map are the initializer's reference
@@ -472,6 +508,7 @@ void System::setMap(map::Map loaded, const std::string& source) {
   impl_->map = std::move(loaded);
   impl_->mapper->reset();
   if (impl_->directFrontEnd) impl_->directFrontEnd->reset();
+  if (impl_->lineFrontEnd) impl_->lineFrontEnd->reset();
   impl_->tracker->onMapLoaded();
   impl_->newGeneration();
 }
@@ -492,6 +529,7 @@ void System::reset() {
   impl_->tracker->reset();
   impl_->mapper->reset();
   if (impl_->directFrontEnd) impl_->directFrontEnd->reset();
+  if (impl_->lineFrontEnd) impl_->lineFrontEnd->reset();
   impl_->newGeneration();
   impl_->counters.initializedAtFrame = -1;
 }
@@ -516,12 +554,14 @@ nlohmann::json System::summary() const {
   Counters c;
   std::size_t keyFrames = 0, mapPoints = 0;
   nlohmann::json direct = {{"direct_points", 0}, {"direct_active", 0}, {"direct_hosts", 0}};
+  std::size_t lineCount = 0;
   if (impl_) {
     std::lock_guard<std::mutex> mk(impl_->mapMutex);
     c = impl_->counters;
     keyFrames = impl_->map.numKeyFrames();
     mapPoints = impl_->map.numMapPoints();
     if (impl_->directFrontEnd) direct = impl_->directFrontEnd->summary();
+    if (impl_->lineFrontEnd) lineCount = impl_->lineFrontEnd->numLines();
   }
   return {{"frames_processed", c.frames},
           {"frames_tracked", c.tracked},
@@ -536,7 +576,8 @@ nlohmann::json System::summary() const {
           {"direct_active", direct["direct_active"]},
           {"manhattan_frames", c.manhattanFrames},
           {"manhattan_tracked", c.manhattanTracked},
-          {"fallback_tracked", c.fallbackTracked}};
+          {"fallback_tracked", c.fallbackTracked},
+          {"lines", lineCount}};
 }
 
 nlohmann::json System::report() const {

@@ -44,6 +44,8 @@ nlohmann::json FrameReport::toJson() const {
           {"direct_inactive", direct.inactive}, {"direct_measured", direct.measured},
           {"direct_reference_in_view", direct.referenceInView}, {"direct_reference_active", direct.referenceActive},
           {"manhattan", manhattan.toJson()},
+          {"lines_detected", lines.detected}, {"lines_visible", lines.visible}, {"lines_factors", lines.factors},
+          {"lines_inliers", lines.inliers},
           {"map_points", mapPoints}, {"keyframes", keyFrames}, {"message", message}};
 }
 
@@ -136,18 +138,21 @@ int Tracker::updatePointModels(const Frame& frame) {
 
 bool Tracker::poseSupported(int keypointInliers, int minKeypointInliers) const {
   if (keypointInliers >= minKeypointInliers) return true;
-  if (directFactors_ == 0) return false;
-  // Keypoint and direct inliers each count as their share of what would carry the pose alone: 28 of 30
+  if (directFactors_ == 0 && lineFactors_ == 0) return false;
+  // Keypoint, direct and line inliers each count as their share of what would carry the pose alone: 28 of 30
   // keypoints and a handful of direct points together are as good a pose as 30 keypoints.
-  return static_cast<double>(keypointInliers) / minKeypointInliers +
-             static_cast<double>(directInliers_) / direct_->minInliers() >=
-         1.0;
+  double share = static_cast<double>(keypointInliers) / minKeypointInliers;
+  if (directFactors_ > 0) share += static_cast<double>(directInliers_) / direct_->minInliers();
+  if (lineFactors_ > 0) share += static_cast<double>(lineInliers_) / lines_->minInliers();
+  return share >= 1.0;
 }
 
 int Tracker::optimizeFramePose(Frame& frame) {
   recordMeasurements(frame);
   directFactors_ = directInliers_ = 0;
   directOutliers_.clear();
+  lineFactors_ = lineInliers_ = 0;
+  lineOutliers_.clear();
   std::vector<optimize::PoseObservation> obs;
   std::vector<std::size_t> keypointOf;
   std::vector<std::size_t> evidence;  ///< matches of points the policy does not let us use (§3.4.2: measured only)
@@ -177,7 +182,17 @@ int Tracker::optimizeFramePose(Frame& frame) {
     if (timings_) stage.emplace(*timings_, "direct_factors");
     direct = direct_->poseFactors(frame, map_, referenceKeyFrame_);
   }
-  if (obs.size() < 3 && direct.empty()) {
+  // ---- line segments (eq. 2.59): every attempt that starts from a pose guess (as the direct points' useDirect_)
+  std::vector<std::shared_ptr<const optimize::PoseFactor>> lineFactors;
+  if (lines_ && useDirect_) {
+    std::optional<ScopedStage> stage;
+    if (timings_) stage.emplace(*timings_, "line_factors");
+    lineFactors = lines_->poseFactors(frame, map_, referenceKeyFrame_);
+  }
+  // ---- end line segments
+  // Lines count only when the rotation is fixed (a 3-DoF problem they can carry with a few points, §4.4.2).
+  const std::size_t lineConstraints = frame.rotationPrior ? lineFactors.size() : 0;
+  if (obs.size() + lineConstraints < 3 && direct.empty()) {
     for (std::size_t i : evidence) frame.mapPointIds[i] = map::kNoMapPoint;
     return 0;
   }
@@ -188,6 +203,7 @@ int Tracker::optimizeFramePose(Frame& frame) {
   request.camera = frame.camera;
   request.observations = std::move(obs);
   request.rotationPrior = frame.rotationPrior;
+  request.factors.insert(request.factors.end(), lineFactors.begin(), lineFactors.end());  // lines (after direct)
   const optimize::PoseOptimizationResult r =
       direct.empty() ? solverFor(frame).solve(request)
                      : solverFor(frame).solveCoarseToFine(request, direct, direct_->coarsestLevel());
@@ -196,6 +212,10 @@ int Tracker::optimizeFramePose(Frame& frame) {
   directFactors_ = static_cast<int>(direct.size());
   directOutliers_.assign(r.factorOutlier.begin(), r.factorOutlier.begin() + static_cast<long>(direct.size()));
   for (bool o : directOutliers_) directInliers_ += o ? 0 : 1;
+  // The lines' flags follow the direct ones in factorOutlier (PoseSolver::solveCoarseToFine).
+  lineFactors_ = static_cast<int>(lineFactors.size());
+  lineOutliers_.assign(r.factorOutlier.begin() + static_cast<long>(direct.size()), r.factorOutlier.end());
+  for (bool o : lineOutliers_) lineInliers_ += o ? 0 : 1;
   int inliers = 0;
   for (std::size_t k = 0; k < keypointOf.size(); ++k) {
     const std::size_t i = keypointOf[k];
@@ -307,7 +327,7 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   const int n = searchLastFrame(frame, static_cast<float>(manhattanParams_.searchRadiusFactor));
   // With the rotation fixed, the 3-DoF translation needs fewer matches than 6-DoF tracking's minMotionMatches.
   const int enough = std::min(params_.minMotionMatches, manhattanParams_.minInliers);
-  bool found = (n >= enough || direct_) && poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+  bool found = (n >= enough || direct_ || lines_) && poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
   if (!found) found = trackReferenceKeyFrame(frame);
   if (!found) {
     report.reason = "too few matches with the Manhattan rotation (motion model " + std::to_string(n) + ")";
@@ -746,6 +766,10 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   if (direct_ && mapUpdates_) {
     ScopedStage st(timings, "direct_update");
     rep.direct = direct_->afterTracking(frame, map_, directOutliers_);
+  }
+  if (lines_ && mapUpdates_) {
+    ScopedStage st(timings, "line_update");
+    rep.lines = lines_->afterTracking(frame, map_, lineOutliers_);
   }
   if (last_.hasPose && !relocalized) {
     velocity_ = frame.T_cam_world * last_.T_cam_world.inverse();

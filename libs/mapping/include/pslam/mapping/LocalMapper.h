@@ -157,15 +157,20 @@ class LocalMapper {
   /// Forgets the recent-point list (after the tracker cleared the map).
   void reset();
 
-  /// Other landmark kinds in local BA (§3.4.3: direct points): `factors` adds factors to the window's problem
-  /// (BAProblem::factors; their keyframes must be window keyframes), `applied` gets their outlier flags after the
-  /// optimization, in the same order. Empty functions: keypoints only.
+  /// Other landmark kinds in local BA (§3.4.3: direct points; eq. 2.59: lines): `factors` adds factors to the
+  /// window's problem (BAProblem::factors; their keyframes must be window keyframes), `applied` gets their outlier
+  /// flags after the optimization, in the same order. Several kinds each add their own pair of hooks
+  /// (addBAFactorHooks); their factors follow one another in the order the hooks were added, and each `applied`
+  /// gets the flags of its own factors only. setBAFactorHooks replaces every pair by one. No hooks: keypoints only.
   using BAFactorMaker = std::function<std::vector<std::shared_ptr<optimize::BAFactor>>(const map::Map&,
                                                                                       const optimize::BAProblem&)>;
   using BAFactorsApplied = std::function<void(const std::vector<bool>&)>;
   void setBAFactorHooks(BAFactorMaker factors, BAFactorsApplied applied) {
-    baFactors_ = std::move(factors);
-    baFactorsApplied_ = std::move(applied);
+    baHooks_.clear();
+    addBAFactorHooks(std::move(factors), std::move(applied));
+  }
+  void addBAFactorHooks(BAFactorMaker factors, BAFactorsApplied applied) {
+    baHooks_.push_back({std::move(factors), std::move(applied)});
   }
 
   /// Is the point used for tracking / BA (pointUsePolicy()->mayUse)?
@@ -197,8 +202,11 @@ class LocalMapper {
   LocalMappingParams params_;
   std::vector<map::MapPointId> recent_;
   int landmarkUpdates_ = 0;
-  BAFactorMaker baFactors_;
-  BAFactorsApplied baFactorsApplied_;
+  struct BAHooks {
+    BAFactorMaker factors;
+    BAFactorsApplied applied;
+  };
+  std::vector<BAHooks> baHooks_;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -4,8 +4,8 @@
 //   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
 //   [LocalMapping] mapping::LocalMappingParams   [PointModel] landmarks::PointModelParams   [System] SystemParams
-//   [DirectFeatures] direct::DirectFeaturesParams   [Manhattan] tracking::ManhattanPathParams
-//   [ManhattanTracker] manhattan::ManhattanParams
+//   [DirectFeatures] direct::DirectFeaturesParams   [Lines] lines::LinesParams
+//   [Manhattan] tracking::ManhattanPathParams   [ManhattanTracker] manhattan::ManhattanParams
 // An unknown section or key is an error naming the closest valid one.
 #include <string>
 #include <vector>
@@ -17,6 +17,7 @@
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/landmarks/PointModel.h"
 #include "pslam/manhattan/ManhattanTracker.h"
+#include "pslam/lines/LineFrontEnd.h"
 #include "pslam/mapping/LocalMapper.h"
 #include "pslam/optimize/Params.h"
 #include "pslam/tracking/MonocularInitializer.h"
@@ -55,6 +56,7 @@ struct SlamParams {
   direct::DirectFeaturesParams directFeatures;  ///< off by default (ORB-SLAM*)
   tracking::ManhattanPathParams manhattan;       ///< off by default (ORB-SLAM*)
   manhattan::ManhattanParams manhattanTracker;   ///< the mean shift of the Manhattan path (Table 4.1)
+  lines::LinesParams lines;                     ///< [Lines], off by default
 
   template <class V>
   void visitSections(V& v) {
@@ -69,6 +71,7 @@ struct SlamParams {
     v.section("DirectFeatures", directFeatures);
     v.section("Manhattan", manhattan);
     v.section("ManhattanTracker", manhattanTracker);
+    v.section("Lines", lines);
   }
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);

@@ -20,6 +20,7 @@
 #include "pslam/tracking/DirectPointSource.h"
 #include "pslam/tracking/Frame.h"
 #include "pslam/tracking/KeyFrameDecision.h"
+#include "pslam/tracking/LineSource.h"
 #include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/MonocularInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
@@ -140,6 +141,7 @@ struct FrameReport {
   int modelUpdates = 0;        ///< depth measurements applied to the points' models in this frame (§3.4.2)
   DirectFrameCounts direct;    ///< direct points (all 0 without a DirectPointSource)
   ManhattanFrameReport manhattan;  ///< the Manhattan path (§4.4; mode "none" when disabled)
+  LineFrameCounts lines;       ///< line segments (all 0 without a LineSource)
   bool keyFrame = false;
   std::size_t mapPoints = 0, keyFrames = 0;
   std::string message;
@@ -189,6 +191,8 @@ class Tracker {
   void enableManhattanPath(ManhattanPathParams params, std::unique_ptr<PoseSolver> solver);
   /// R_world_mf of the global Manhattan frame, once known.
   const std::optional<Eigen::Matrix3d>& worldManhattanFrame() const { return R_world_mf_; }
+  /// Line segments join pose optimization through `source` (eq. 2.59, §2.4.4); null (default) = no lines.
+  void setLineSource(std::shared_ptr<LineSource> source) { lines_ = std::move(source); }
   bool mapUpdatesEnabled() const { return mapUpdates_; }
   /// The map was replaced by a loaded one: tracking is initialized and lost, the next frame relocalizes.
   void onMapLoaded();
@@ -211,7 +215,8 @@ class Tracker {
   /// DirectPointSource, coarse to fine); outliers are unmatched afterwards. Returns the keypoint inliers.
   int optimizeFramePose(Frame& frame);
   /// Did the last optimizeFramePose succeed: `keypointInliers` >= `minKeypointInliers`, or, when direct points
-  /// took part, keypoint inliers / minKeypointInliers + direct inliers / DirectPointSource::minInliers >= 1.
+  /// took part, keypoint inliers / minKeypointInliers + direct inliers / DirectPointSource::minInliers >= 1
+  /// (+ line inliers / LineSource::minInliers when lines took part).
   bool poseSupported(int keypointInliers, int minKeypointInliers) const;
   bool trackWithMotionModel(Frame& frame);
   bool trackReferenceKeyFrame(Frame& frame);
@@ -276,6 +281,11 @@ class Tracker {
   int directFactors_ = 0;               ///< of the last optimizeFramePose
   int directInliers_ = 0;
   std::vector<bool> directOutliers_;
+  // ---- line segments (LineSource), in the same attempts as the direct points
+  std::shared_ptr<LineSource> lines_;
+  int lineFactors_ = 0;                 ///< of the last optimizeFramePose
+  int lineInliers_ = 0;
+  std::vector<bool> lineOutliers_;
 };
 
 }  // namespace pslam::tracking
