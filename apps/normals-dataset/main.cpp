@@ -47,6 +47,15 @@ int main(int argc, char** argv) {
     cli.add_option("--max-tilt", o.maxTiltDeg, "extra camera roll/pitch/yaw, uniform in +- this (deg)")
         ->check(key("max_tilt_deg"))
         ->capture_default_str();
+    cli.add_option("--look-down-share", o.lookDownShare, "share of views that also look down at floor and furniture")
+        ->check(key("look_down_share"))
+        ->capture_default_str();
+    cli.add_option("--look-down-min", o.lookDownMinDeg, "smallest extra downward pitch of those (deg)")
+        ->check(key("look_down_min_deg"))
+        ->capture_default_str();
+    cli.add_option("--look-down-max", o.lookDownMaxDeg, "largest extra downward pitch of those (deg)")
+        ->check(key("look_down_max_deg"))
+        ->capture_default_str();
     cli.add_flag("--fixed-lighting", fixedLighting, "keep the scenarios' lighting (no light randomization)");
     cli.add_option("--max-exposure-gain", o.maxExposureGain, "exposure gain uniform in 1 +- this")
         ->check(key("max_exposure_gain"))

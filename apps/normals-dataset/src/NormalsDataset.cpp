@@ -85,6 +85,8 @@ void NormalsDatasetOptions::check() const {
   params::check(*this, kSection);
   if (focalMax < focalMin)
     throw params::ParamError(kSection, "focal_max", std::to_string(focalMax), "must be >= focal_min");
+  if (lookDownMaxDeg < lookDownMinDeg)
+    throw params::ParamError(kSection, "look_down_max_deg", std::to_string(lookDownMaxDeg), "must be >= look_down_min_deg");
   if (outDir.empty()) throw params::ParamError(kSection, "out_dir", "", "output folder is required");
 }
 
@@ -92,7 +94,8 @@ nlohmann::json NormalsDatasetOptions::toJson() const {
   return {{"scenarios", scenarios}, {"first_train_seed", firstTrainSeed}, {"train_seeds", trainSeeds},
           {"first_test_seed", firstTestSeed}, {"test_seeds", testSeeds}, {"views", views}, {"width", width},
           {"height", height}, {"focal_min", focalMin}, {"focal_max", focalMax}, {"untextured_share", untexturedShare},
-          {"max_tilt_deg", maxTiltDeg}, {"random_lighting", randomLighting}, {"max_exposure_gain", maxExposureGain},
+          {"max_tilt_deg", maxTiltDeg}, {"look_down_share", lookDownShare}, {"look_down_min_deg", lookDownMinDeg},
+          {"look_down_max_deg", lookDownMaxDeg}, {"random_lighting", randomLighting}, {"max_exposure_gain", maxExposureGain},
           {"max_exposure_offset", maxExposureOffset}, {"max_noise", maxNoise}, {"blur_share", blurShare},
           {"max_blur_sigma", maxBlurSigma}, {"supersampling", supersampling}, {"threads", threads},
           {"out_dir", outDir.string()}};
@@ -139,6 +142,9 @@ std::vector<NormalsSample> NormalsDataset::renderSequence(const std::string& sce
     const double gainDraw = U(-1, 1), offsetDraw = U(-1, 1), noiseDraw = U(0, 1), blurDraw = U(0, 1),
                  sigmaDraw = U(0.3, o.maxBlurSigma);
     const auto noiseSeed = static_cast<std::uint64_t>(rng());
+    const double lookDownDraw = U(0, 1), lookDownAngle = U(o.lookDownMinDeg, o.lookDownMaxDeg);
+    // A rotation about the camera x axis by -a turns the optical axis towards +y, i.e. down.
+    if (lookDownDraw < o.lookDownShare) d.pitchDeg -= lookDownAngle;
     Lighting light = presetLighting;
     if (o.randomLighting) {
       d.keyAzimuthDeg = keyAz;

@@ -107,3 +107,29 @@ TEST(NormalsDataset, BadOptionsNameTheKey) {
   o = small();
   EXPECT_THROW(NormalsDataset(o).run(), pslam::params::ParamError);  // no out_dir
 }
+
+TEST(NormalsDataset, LookingDownShowsMoreFloor) {
+  // The same views with and without the downward look: the draws are otherwise identical, and the share of
+  // pixels whose normal points up (camera -y after the turn, i.e. the floor) grows.
+  NormalsDatasetOptions o = small();
+  o.lookDownShare = 1.0;
+  o.lookDownMinDeg = o.lookDownMaxDeg = 40.0;
+  NormalsDatasetOptions flat = o;
+  flat.lookDownShare = 0.0;
+  const auto down = NormalsDataset(o).renderSequence("room", 4, 0, 4);
+  const auto level = NormalsDataset(flat).renderSequence("room", 4, 0, 4);
+  auto floorShare = [](const NormalsSample& s) {
+    // Floor normal in the camera frame: the world up vector; with a level camera it is about -y.
+    int n = 0;
+    for (auto it = s.normals.begin<cv::Vec3f>(); it != s.normals.end<cv::Vec3f>(); ++it) n += (*it)[1] < -0.5f;
+    return double(n) / double(s.normals.total());
+  };
+  double sumDown = 0, sumLevel = 0;
+  for (std::size_t i = 0; i < down.size(); ++i) {
+    EXPECT_NEAR(down[i].draws.pitchDeg, level[i].draws.pitchDeg - 40.0, 1e-9);
+    EXPECT_EQ(down[i].draws.time, level[i].draws.time);
+    sumDown += floorShare(down[i]);
+    sumLevel += floorShare(level[i]);
+  }
+  EXPECT_GT(sumDown, sumLevel + 0.5);  // over 4 views
+}

@@ -4,7 +4,8 @@
 // image + normal + planar-mask triples (PNG), split by scene seed.
 //
 // Domain randomization, per view (all derived from scenario, seed and view index, so a dataset is reproducible
-// bit for bit): time along the scenario's camera path, a small extra camera rotation, focal length, direction
+// bit for bit): time along the scenario's camera path, a small extra camera rotation and, for a share of the
+// views, a downward look at floor and furniture (hand-held RGB-D sequences such as TUM fr3_cabinet), focal length, direction
 // and strength of the key and fill lights and the ambient term, exposure gain and offset, Gaussian blur and
 // image noise; per sequence (scenario + seed): textured or white surfaces.
 //
@@ -46,6 +47,8 @@ struct NormalsDatasetOptions {
   double focalMin = 0.8, focalMax = 1.25;  ///< focal length factor on the scenario's default
   double untexturedShare = 0.25;           ///< share of sequences with white surfaces
   double maxTiltDeg = 10.0;                ///< extra camera rotation: roll, pitch and yaw uniform in +-this
+  double lookDownShare = 0.35;             ///< share of views that also look down (floor and furniture from above)
+  double lookDownMinDeg = 15.0, lookDownMaxDeg = 50.0;  ///< their extra downward pitch, uniform in [min, max]
   bool randomLighting = true;              ///< key/fill directions and strengths, ambient
   double maxExposureGain = 0.3;            ///< gain uniform in 1 +- this
   double maxExposureOffset = 20.0;         ///< offset uniform in +- this (grey levels)
@@ -74,6 +77,9 @@ struct NormalsDatasetOptions {
     PSLAM_KEY(v, "focal_max", focalMax, inClosed(0.1, 10), "largest focal length factor (>= focal_min)");
     PSLAM_KEY(v, "untextured_share", untexturedShare, inClosed(0, 1), "share of sequences with white surfaces");
     PSLAM_KEY(v, "max_tilt_deg", maxTiltDeg, inClosed(0, 45), "extra camera roll/pitch/yaw, uniform in +-this");
+    PSLAM_KEY(v, "look_down_share", lookDownShare, inClosed(0, 1), "share of views that also look down");
+    PSLAM_KEY(v, "look_down_min_deg", lookDownMinDeg, inClosed(0, 80), "smallest extra downward pitch of those");
+    PSLAM_KEY(v, "look_down_max_deg", lookDownMaxDeg, inClosed(0, 80), "largest extra downward pitch (>= min)");
     PSLAM_KEY(v, "random_lighting", randomLighting, anyValue, "randomize light directions and strengths");
     PSLAM_KEY(v, "max_exposure_gain", maxExposureGain, inClosed(0, 0.9), "exposure gain uniform in 1 +- this");
     PSLAM_KEY(v, "max_exposure_offset", maxExposureOffset, inClosed(0, 100), "exposure offset uniform in +- this");
@@ -84,7 +90,7 @@ struct NormalsDatasetOptions {
     PSLAM_FIELD(v, threads, inClosed(1, 64), "renderer threads (the output is identical for any count)");
     PSLAM_KEY(v, "out_dir", outDir, anyValue, "output folder (required)");
   }
-  /// check() also requires out_dir and focal_min <= focal_max.
+  /// check() also requires out_dir, focal_min <= focal_max and look_down_min_deg <= look_down_max_deg.
   PSLAM_PARAMS("normals_dataset")
   nlohmann::json toJson() const;
 };
@@ -92,7 +98,7 @@ struct NormalsDatasetOptions {
 /// The random draws of one view.
 struct ViewDraws {
   double time = 0;                     ///< seconds along the scenario's camera path
-  double rollDeg = 0, pitchDeg = 0, yawDeg = 0;
+  double rollDeg = 0, pitchDeg = 0, yawDeg = 0;  ///< about camera x; the look-down pitch is included (negative = down)
   double focalFactor = 1;
   bool textured = true;
   double keyAzimuthDeg = 0, keyElevationDeg = 0, fillAzimuthDeg = 0, fillElevationDeg = 0;
