@@ -68,9 +68,9 @@ std::string errorOf(const std::function<void()>& f) {
 // Recorded with the shipped model (doc/normals_network.md, "Test set of the unit test"). Tolerances: 0.5 deg on the
 // median and mean, 2 percentage points on the share under 11.25 deg: far above what BLAS or OpenCV build
 // differences move (< 0.01 deg), far below what another model or a wrong convention gives.
-constexpr double kRecordedMedianDeg = 6.30;
-constexpr double kRecordedMeanDeg = 9.07;
-constexpr double kRecordedUnder11 = 0.828;
+constexpr double kRecordedMedianDeg = 7.23;
+constexpr double kRecordedMeanDeg = 10.12;
+constexpr double kRecordedUnder11 = 0.793;
 
 TEST(ShippedNormalsModel, ReproducesItsRecordedAccuracyOnHeldOutViews) {
   ASSERT_TRUE(fs::is_regular_file(kModel)) << kModel;
