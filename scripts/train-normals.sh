@@ -9,8 +9,9 @@
 #
 # Environment: BUILD_DIR (build), DATA_DIR (/tmp/normals-data; large, keep it out of the repository),
 # WORK_DIR (/tmp/normals-train), EPOCHS (8), SEED (7), THREADS (1: the CPU is shared), PYTHON (/usr/bin/python3).
-# Runs about 40 minutes on one core; writes the model, training.json and loss.png into WORK_DIR, then copies
-# the model into config/manhattan/models/ and the loss curve into doc/img/.
+# Training takes 10-40 minutes on one core (about 9 on a free core, 35 on a shared, loaded one); it writes
+# the model, training.json and loss.png into WORK_DIR, then copies the model into config/manhattan/models/ and
+# the loss curve into doc/img/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}

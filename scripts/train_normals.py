@@ -13,7 +13,6 @@ at the input resolution. Loss: 1 - cos(angle) over the planar pixels.
 """
 import argparse
 import json
-import math
 import os
 import random
 import sys
