@@ -23,6 +23,11 @@ int main(int argc, char** argv) {
   app.add_option("--reference-normals", opt.referenceNormals, "Second source for normal accuracy: rawlog|depth|network");
   app.add_option("--config", opt.config, "ini with [ManhattanTracker], [NormalsFromDepth], [NormalsFromNetwork]");
   app.add_option("--reference-config", opt.referenceConfig, "ini for the reference source (default: --config)");
+  app.add_option("--accuracy-pixels", opt.accuracyPixels,
+                 "Normal accuracy over: all (both sources have a normal) | reference-planar (and the reference's "
+                 "planar mask is set)")
+      ->check(CLI::IsMember({"all", "reference-planar"}))
+      ->capture_default_str();
   app.add_option("--plot", opt.outputPlot, "Write a PNG of the per-frame rotation error");
   // Command-line numbers: the ini's strict parsing and a rule (params::cliCheck).
   using pslam::params::cliCheck;

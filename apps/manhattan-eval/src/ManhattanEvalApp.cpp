@@ -52,6 +52,7 @@ ManhattanEvalConfig ManhattanEvalConfig::loadFromFile(const fs::path& path) {
 
 ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   params::checkOption("--normal-stride", o.normalStride, params::atLeast(1));
+  params::checkOption("--accuracy-pixels", o.accuracyPixels, params::oneOf({"all", "reference-planar"}));
   params::checkOption("--max-gt-dt", o.maxGroundTruthDt, params::atLeast(0));
   require(!o.rawlog.empty(), "manhattan-eval", "an input rawlog is required");
   require(fs::is_regular_file(o.rawlog), o.rawlog.string(), "rawlog not found");
@@ -107,7 +108,14 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
     }
     if (referenceSource) {
       const priors::NormalMap ref = referenceSource->compute(frame);
-      accuracy.addMaps(nm.normals, ref.normals);
+      if (o.accuracyPixels == "reference-planar") {
+        // Only where the reference finds a plane (depth: AHC-style segments; rawlog: every stored normal).
+        cv::Mat planarRef(ref.normals.size(), CV_32FC3, cv::Scalar::all(0));
+        ref.normals.copyTo(planarRef, ref.planarMask);
+        accuracy.addMaps(nm.normals, planarRef);
+      } else {
+        accuracy.addMaps(nm.normals, ref.normals);
+      }
     }
     // The tracker uses the planar pixels only (thesis §4.2).
     cv::Mat planarNormals(nm.normals.size(), CV_32FC3, cv::Scalar::all(0));
@@ -187,6 +195,7 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   config["reference_normals"] = o.referenceNormals;
   config["reference_config"] = (o.referenceConfig.empty() ? o.config : o.referenceConfig).string();
   config["normal_stride"] = o.normalStride;
+  config["accuracy_pixels"] = o.accuracyPixels;
 
   ManhattanEvalResult r;
   r.report = {{"config", config}, {"summary", summary}, {"frames", perFrame}};

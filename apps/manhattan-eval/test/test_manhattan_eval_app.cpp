@@ -120,6 +120,23 @@ TEST(ManhattanEvalApp, FollowsACameraTurningInsideABoxRoom) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("frame 0"), std::string::npos) << e.what();
   }
+  // Normal accuracy over every pixel with a normal, or over the reference's planes only (a subset).
+  o.referenceNormals = "depth";
+  o.outputJson = o.outputText = o.outputPlot = fs::path();
+  const auto all = manhattan::runManhattanEval(o).report["summary"]["normal_accuracy"];
+  o.accuracyPixels = "reference-planar";
+  const auto planar = manhattan::runManhattanEval(o).report["summary"]["normal_accuracy"];
+  EXPECT_GT(planar["count"].get<std::size_t>(), 0u);
+  EXPECT_LE(planar["count"].get<std::size_t>(), all["count"].get<std::size_t>());
+  EXPECT_LT(planar["median_deg"].get<double>(), 0.01);  // the same source on both sides
+  o.accuracyPixels = "planes";
+  try {
+    manhattan::runManhattanEval(o);
+    FAIL() << "expected pslam::Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--accuracy-pixels"), std::string::npos) << e.what();
+  }
+  o.accuracyPixels = "all";
   // Missing ground truth is named.
   o.referenceNormals.clear();
   o.groundTruth = dir.path / "nope.txt";

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <mrpt/config/CConfigFile.h>
+#include <opencv2/imgproc.hpp>
 
 #include "pslam/core/Error.h"
 #include "pslam/datasets/Rawlog.h"
@@ -189,4 +190,44 @@ TEST(NormalsFromNetwork, SectionReadStrictly) {
             "F: [NormalsFromNetwork] swapRB = maybe: not a bool (true or false)");
   EXPECT_EQ(errorFor("[NormalsFromNetwork]\naxisMapping = x,-y,w\n"),
             "F: [NormalsFromNetwork] axisMapping = x,-y,w: entry 'w' must be [+|-]x, y or z");
+}
+
+TEST(NormalsFromNetwork, LargerImagesAreShrunkAndTheOutputUpsampledLikeCvResize) {
+  TempDir dir;
+  writeDarknet(dir.path / "n.cfg", dir.path / "n.weights", 16, {{2, 0, 0}, {0, 2, 0}, {0, 0, 2}}, {-1, -1, -1});
+  NetworkNormalParams p;
+  p.model = (dir.path / "n.weights").string();
+  p.config = (dir.path / "n.cfg").string();
+  p.inputWidth = p.inputHeight = 16;
+  p.swapRB = false;
+  p.orientTowardsCamera = false;
+  NetworkNormalEstimator net(p);
+  // A 16x16 normal image enlarged 4x by pixel replication: the area shrink gives the 16x16 image back, so the
+  // result is the 16x16 decoding upsampled bilinearly (cv::resize INTER_LINEAR) and renormalized.
+  cv::Mat truth16;
+  const cv::Mat img16 = normalImage(16, truth16);
+  cv::Mat img64;
+  cv::resize(img16, img64, cv::Size(64, 48), 0, 0, cv::INTER_NEAREST);  // 4x wide, 3x high
+  const NormalMap nm = net.compute(img64);
+  ASSERT_EQ(nm.normals.size(), cv::Size(64, 48));
+  const NormalMap small = net.compute(img16);
+  cv::Mat expected;
+  cv::resize(small.normals, expected, cv::Size(64, 48), 0, 0, cv::INTER_LINEAR);
+  for (auto it = expected.begin<cv::Vec3f>(); it != expected.end<cv::Vec3f>(); ++it) *it = cv::normalize(*it);
+  EXPECT_LT(maxErrorDeg(nm.normals, expected), 0.05);
+}
+
+TEST(NormalsFromNetwork, AModelWithTooFewOutputChannelsFailsAtLoadNamingTheFile) {
+  TempDir dir;
+  writeDarknet(dir.path / "two.cfg", dir.path / "two.weights", 16, {{1, 0, 0}, {0, 1, 0}}, {0, 0});
+  NetworkNormalParams p;
+  p.model = (dir.path / "two.weights").string();
+  p.config = (dir.path / "two.cfg").string();
+  p.inputWidth = p.inputHeight = 16;
+  try {
+    NetworkNormalEstimator net(p);
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.model + ": normals output has 2 channels, needs >= 3");
+  }
 }

@@ -20,6 +20,9 @@ struct ManhattanEvalOptions {
   std::string referenceNormals;       ///< optional second source; metrics of `normals` against it
   std::filesystem::path config;       ///< ini: [ManhattanTracker], [NormalsFromDepth], [NormalsFromNetwork]
   std::filesystem::path referenceConfig;  ///< ini of the reference source; empty = `config`
+  /// Pixels of the normal accuracy: "all" where both sources have a normal, or "reference-planar" where both
+  /// have one and the reference's planar mask is set (depth normals: only the segmented planes).
+  std::string accuracyPixels = "all";
   std::size_t referenceFrame = 0;     ///< errors relative to the first evaluated frame with index >= this
   int normalStride = 2;               ///< pixel stride when collecting normals for the tracker
   double maxGroundTruthDt = 0.02;     ///< [s] ground-truth association window

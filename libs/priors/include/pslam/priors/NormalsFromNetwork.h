@@ -91,18 +91,22 @@ struct NetworkNormalParams {
 
 class NetworkNormalEstimator {
  public:
-  /// Loads the network; throws pslam::Error naming the model file if it cannot be read.
+  /// Loads the network and runs it once on a blank input of the configured size; throws pslam::Error naming
+  /// the model file if it cannot be read, does not run at that size, or its output is not 1xCxHxW with C >= 3
+  /// (and C > planarChannel).
   explicit NetworkNormalEstimator(NetworkNormalParams params);
   ~NetworkNormalEstimator();
   NetworkNormalEstimator(const NetworkNormalEstimator&) = delete;
   NetworkNormalEstimator& operator=(const NetworkNormalEstimator&) = delete;
   const NetworkNormalParams& params() const { return params_; }
 
-  /// image: CV_8UC3 BGR or CV_8UC1. Returns a map of the image's size (output resized bilinearly and
-  /// renormalized). K is needed only for orientTowardsCamera (ignored when null).
+  /// image: CV_8UC3 BGR or CV_8UC1. A larger image is shrunk to the input size by area averaging. Returns a map
+  /// of the image's size (output resized bilinearly and renormalized). K is needed only for
+  /// orientTowardsCamera (ignored when null).
   NormalMap compute(const cv::Mat& image, const PinholeIntrinsics* K = nullptr);
 
  private:
+  void checkOutputLayout(const cv::Mat& out) const;
   struct Impl;
   NetworkNormalParams params_;
   std::unique_ptr<Impl> impl_;
