@@ -302,3 +302,68 @@ TEST(MonocularInitializer, MinStaticProbabilityKeepsDynamicKeypointsOutOfTheInit
   EXPECT_GT(dynamicInitialPoints(0.0), 20) << "without the filter the dynamic half takes part";
   EXPECT_EQ(dynamicInitialPoints(0.8), 0) << "§3.4.1: only P(static) >= 0.8 keypoints initialize";
 }
+
+namespace {
+/// The scene seen from `slot` as a tracking frame (exact keypoints, the scene's descriptors), no pose, no matches.
+tracking::Frame viewOf(World& w, int slot, std::size_t index) {
+  const Eigen::Isometry3d T = mt::poseOf(slot);
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc(0, 32, CV_8U);
+  for (std::size_t i = 0; i < w.scene.points.size(); ++i) {
+    const Eigen::Vector3d pc = T * w.scene.points[i];
+    if (pc.z() <= 0.1) continue;
+    const Eigen::Vector2d px = w.camera.project(pc);
+    if (px.x() < 0 || px.y() < 0 || px.x() >= 640 || px.y() >= 480) continue;
+    kps.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, w.scene.angles[i], 1.f, 0);
+    desc.push_back(w.scene.descriptors[i]);
+  }
+  return tracking::makeFrameFromFeatures(index, static_cast<double>(index), w.camera, kps, desc, 8, 1.2);
+}
+
+double rotationErrorDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle() * 180.0 / M_PI;
+}
+}  // namespace
+
+TEST(TrackerManhattanPath, ExactRotationIsUsedAndAWrongOneFailsValidationAndFallsBack) {
+  // §4.4.2 with the rotation kept (no 6-DoF refinement), so that the validation alone must catch a wrong one.
+  World w;
+  makeWorldAndFrame(w);  // the map: keyframes at slots 0-2 with the true points
+  auto tracker = makeTracker(w);
+  tracking::ManhattanPathParams mp;
+  mp.enabled = true;
+  mp.refinePose = false;
+  tracker->enableManhattanPath(mp, tracking::makePoseSolver("translationOnly", {}));
+  tracker->onMapLoaded();
+  const Eigen::Matrix3d R_world_mf =
+      (Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  StageTimings timings;
+  // Slot 3 relocalizes (6-DoF) and fixes the global Manhattan frame.
+  tracking::Frame a = viewOf(w, 3, 3);
+  a.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
+  const auto ra = tracker->track(a, timings);
+  ASSERT_TRUE(ra.hasPose);
+  ASSERT_TRUE(tracker->worldManhattanFrame().has_value());
+  EXPECT_LT(rotationErrorDeg(ra.T_cam_world, mt::poseOf(3)), 0.05);
+  // Slot 4 with its true Manhattan frame: tracked by the Manhattan path, at the true rotation.
+  tracking::Frame b = viewOf(w, 4, 4);
+  b.R_cam_mf = mt::poseOf(4).linear() * R_world_mf;
+  const auto rb = tracker->track(b, timings);
+  ASSERT_TRUE(rb.hasPose);
+  EXPECT_EQ(rb.report.manhattan.mode, "manhattan") << rb.report.manhattan.reason;
+  EXPECT_LT(rotationErrorDeg(rb.T_cam_world, mt::poseOf(4)), 0.05);
+  EXPECT_LT((rb.T_cam_world.inverse().translation() - mt::poseOf(4).inverse().translation()).norm(), 0.01);
+  EXPECT_GE(rb.report.manhattan.validationInliers, mp.validationMinInliers);
+  // Slot 5 with a Manhattan frame 4 deg off (within maxPriorDeviationDeg): the translation-only estimate with it
+  // does not validate, the 6-DoF path tracks the frame at the true pose.
+  tracking::Frame c = viewOf(w, 5, 5);
+  c.R_cam_mf = Eigen::AngleAxisd(4.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+               mt::poseOf(5).linear() * R_world_mf;
+  const auto rc = tracker->track(c, timings);
+  ASSERT_TRUE(rc.hasPose);
+  EXPECT_EQ(rc.report.manhattan.mode, "fallback");
+  EXPECT_FALSE(rc.report.manhattan.reason.empty());
+  EXPECT_NEAR(rc.report.manhattan.priorDeviationDeg, 4.0, 0.5);
+  EXPECT_LT(rotationErrorDeg(rc.T_cam_world, mt::poseOf(5)), 0.05);
+}
