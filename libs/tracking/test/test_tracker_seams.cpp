@@ -253,9 +253,9 @@ TEST(TrackerSeams, TranslationOnlySolverTakesTheRotationPrior) {
 }
 
 namespace {
-/// The scene seen from `slot` as a tracking frame (exact keypoints, the scene's descriptors), with a SEMANTIC
-/// image that is dynamic on the left half of the image and static elsewhere.
-tracking::Frame viewWithSemantics(World& w, int slot, std::size_t index) {
+/// The scene seen from `slot` as a tracking frame (exact keypoints, the scene's descriptors), no pose, no matches;
+/// `semantic` is its SEMANTIC image (may be empty).
+tracking::Frame viewOf(World& w, int slot, std::size_t index, double timestamp, const cv::Mat& semantic = cv::Mat()) {
   const Eigen::Isometry3d T = mt::poseOf(slot);
   std::vector<cv::KeyPoint> kps;
   cv::Mat desc(0, 32, CV_8U);
@@ -267,9 +267,14 @@ tracking::Frame viewWithSemantics(World& w, int slot, std::size_t index) {
     kps.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, w.scene.angles[i], 1.f, 0);
     desc.push_back(w.scene.descriptors[i]);
   }
+  return tracking::makeFrameFromFeatures(index, timestamp, w.camera, kps, desc, 8, 1.2, semantic);
+}
+
+/// viewOf with a SEMANTIC image that is dynamic on the left half of the image and static elsewhere.
+tracking::Frame viewWithSemantics(World& w, int slot, std::size_t index) {
   cv::Mat semantic(480, 640, CV_8UC3, cv::Scalar(255, 0, 0));            // static
   semantic(cv::Rect(0, 0, 320, 480)).setTo(cv::Scalar(0, 255, 0));      // dynamic
-  return tracking::makeFrameFromFeatures(index, 0.1 * index, w.camera, kps, desc, 8, 1.2, semantic);
+  return viewOf(w, slot, index, 0.1 * static_cast<double>(index), semantic);
 }
 
 /// Initializes from slots 0 and 2 and returns how many initial map points sit on the dynamic half (-1: failed).
@@ -304,22 +309,6 @@ TEST(MonocularInitializer, MinStaticProbabilityKeepsDynamicKeypointsOutOfTheInit
 }
 
 namespace {
-/// The scene seen from `slot` as a tracking frame (exact keypoints, the scene's descriptors), no pose, no matches.
-tracking::Frame viewOf(World& w, int slot, std::size_t index) {
-  const Eigen::Isometry3d T = mt::poseOf(slot);
-  std::vector<cv::KeyPoint> kps;
-  cv::Mat desc(0, 32, CV_8U);
-  for (std::size_t i = 0; i < w.scene.points.size(); ++i) {
-    const Eigen::Vector3d pc = T * w.scene.points[i];
-    if (pc.z() <= 0.1) continue;
-    const Eigen::Vector2d px = w.camera.project(pc);
-    if (px.x() < 0 || px.y() < 0 || px.x() >= 640 || px.y() >= 480) continue;
-    kps.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, w.scene.angles[i], 1.f, 0);
-    desc.push_back(w.scene.descriptors[i]);
-  }
-  return tracking::makeFrameFromFeatures(index, static_cast<double>(index), w.camera, kps, desc, 8, 1.2);
-}
-
 double rotationErrorDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle() * 180.0 / M_PI;
 }
@@ -340,14 +329,14 @@ TEST(TrackerManhattanPath, ExactRotationIsUsedAndAWrongOneFailsValidationAndFall
           .toRotationMatrix();
   StageTimings timings;
   // Slot 3 relocalizes (6-DoF) and fixes the global Manhattan frame.
-  tracking::Frame a = viewOf(w, 3, 3);
+  tracking::Frame a = viewOf(w, 3, 3, 3.0);
   a.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
   const auto ra = tracker->track(a, timings);
   ASSERT_TRUE(ra.hasPose);
   ASSERT_TRUE(tracker->worldManhattanFrame().has_value());
   EXPECT_LT(rotationErrorDeg(ra.T_cam_world, mt::poseOf(3)), 0.05);
   // Slot 4 with its true Manhattan frame: tracked by the Manhattan path, at the true rotation.
-  tracking::Frame b = viewOf(w, 4, 4);
+  tracking::Frame b = viewOf(w, 4, 4, 4.0);
   b.R_cam_mf = mt::poseOf(4).linear() * R_world_mf;
   const auto rb = tracker->track(b, timings);
   ASSERT_TRUE(rb.hasPose);
@@ -357,7 +346,7 @@ TEST(TrackerManhattanPath, ExactRotationIsUsedAndAWrongOneFailsValidationAndFall
   EXPECT_GE(rb.report.manhattan.validationInliers, mp.validationMinInliers);
   // Slot 5 with a Manhattan frame 4 deg off (within maxPriorDeviationDeg): the translation-only estimate with it
   // does not validate, the 6-DoF path tracks the frame at the true pose.
-  tracking::Frame c = viewOf(w, 5, 5);
+  tracking::Frame c = viewOf(w, 5, 5, 5.0);
   c.R_cam_mf = Eigen::AngleAxisd(4.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
                mt::poseOf(5).linear() * R_world_mf;
   const auto rc = tracker->track(c, timings);
