@@ -127,9 +127,19 @@ struct System::Impl {
       none.reason = "no NORMALS channel";
       return none;
     }
-    const cv::Mat normals = priors::decodeNormalMap(frame.normals, ctx + " NORMALS");
-    const manhattan::ManhattanEstimate est =
-        manhattanTracker->process(priors::collectNormals(normals, params.manhattan.normalStride));
+    // Only every normalStride-th pixel is used: those are picked from the 8-bit channel before decoding (the
+    // same normals in the same order as decoding the whole image and collecting with the stride).
+    const int stride = params.manhattan.normalStride;
+    const cv::Mat& full = frame.normals;
+    cv::Mat picked((full.rows + stride - 1) / stride, (full.cols + stride - 1) / stride, full.type());
+    if (full.type() == CV_8UC3)
+      for (int r = 0; r < picked.rows; ++r) {
+        const auto* in = full.ptr<cv::Vec3b>(r * stride);
+        auto* out = picked.ptr<cv::Vec3b>(r);
+        for (int c = 0; c < picked.cols; ++c) out[c] = in[c * stride];
+      }
+    const cv::Mat normals = priors::decodeNormalMap(picked, ctx + " NORMALS");  // checks the type
+    const manhattan::ManhattanEstimate est = manhattanTracker->process(priors::collectNormals(normals, 1));
     if (est.valid) frame.R_cam_mf = est.R_cam_mf;
     return est;
   }
