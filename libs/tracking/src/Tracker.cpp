@@ -301,7 +301,7 @@ std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, Ma
   }
   // The frame's axes re-labelled to the prediction's (the mean-shift tracker keeps labels from frame to frame,
   // but re-initializations may permute them), then R_cam_world = R_cam_mf R_world_mf^T (§4.4.2).
-  const Eigen::Matrix3d R_pred = (haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world).linear();
+  const Eigen::Matrix3d R_pred = predictedPose().linear();
   double deviation = 0.0;
   const Eigen::Matrix3d R_cam_mf = manhattan::alignToReference(*frame.R_cam_mf, R_pred * *R_world_mf_, &deviation);
   report.priorDeviationDeg = deviation;
@@ -318,7 +318,7 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   measured_.clear();
   frame.rotationPrior = R_cam_world;
   // The motion model's camera centre with the Manhattan rotation.
-  const Eigen::Isometry3d predicted = haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world;
+  const Eigen::Isometry3d predicted = predictedPose();
   const Eigen::Vector3d centre = -(predicted.linear().transpose() * predicted.translation());
   frame.T_cam_world.linear() = R_cam_world;
   frame.T_cam_world.translation() = -(R_cam_world * centre);

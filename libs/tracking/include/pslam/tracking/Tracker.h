@@ -240,6 +240,8 @@ class Tracker {
   /// Projection search of the last frame's points at frame.T_cam_world (motion-model matching); returns matches.
   /// The window grows by 2x while there are too few matches, up to `widestFactor` x motionModelRadius.
   int searchLastFrame(Frame& frame, float widestFactor = 2.f);
+  /// The motion model's pose for the next frame (the last frame's pose without a velocity).
+  Eigen::Isometry3d predictedPose() const { return haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world; }
   /// The pose solver of this frame: the translation-only one when the frame has a rotation prior.
   const PoseSolver& solverFor(const Frame& frame) const;
   /// Every match of `frame` that entered pose optimization (keypoint per point, the last one wins), so that
