@@ -100,6 +100,10 @@ struct System::Impl {
       manhattanTracker = std::make_unique<manhattan::ManhattanTracker>(params.manhattanTracker);
       tracker->enableManhattanPath(params.manhattan,
                                    tracking::makePoseSolver("translationOnly", params.poseOptimization));
+      if (params.manhattan.baRotationSigmaDeg > 0.0)
+        mapper->addBAFactorHooks(
+            [this](const map::Map&, const optimize::BAProblem& problem) { return tracker->manhattanRotationPriors(problem); },
+            [](const std::vector<bool>&) {});
     }
     // ---- line segments ([Lines], eq. 2.59): tracking's pose optimization and local BA use them
     if (params.lines.enabled) {

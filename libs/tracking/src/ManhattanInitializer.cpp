@@ -168,6 +168,7 @@ InitializationOutcome ManhattanInitializer::process(Frame& current, map::Map& ma
     return out;
   }
   out.initialized = true;
+  out.manhattanRotation = true;
   out.kf1 = built.kf1;
   out.kf2 = built.kf2;
   out.message = "initialized (manhattan, rotation " + std::to_string(angleDeg) + " deg, " +

@@ -6,6 +6,7 @@
 
 #include "pslam/core/Error.h"
 #include "pslam/manhattan/ManhattanTracker.h"
+#include "pslam/optimize/RotationPriorFactor.h"
 
 namespace pslam::tracking {
 
@@ -100,6 +101,7 @@ void Tracker::onMapLoaded() {
   localKeyFrames_.clear();
   last_ = Frame();
   R_world_mf_.reset();  // found again on the first tracked frame with a Manhattan frame
+  keyFrameManhattan_.clear();
 }
 
 void Tracker::reset() {
@@ -113,6 +115,7 @@ void Tracker::reset() {
   localKeyFrames_.clear();
   last_ = Frame();
   R_world_mf_.reset();
+  keyFrameManhattan_.clear();
 }
 
 void Tracker::recordMeasurements(const Frame& frame) {
@@ -310,6 +313,24 @@ std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, Ma
     return std::nullopt;
   }
   return R_cam_mf * R_world_mf_->transpose();
+}
+
+std::vector<std::shared_ptr<optimize::BAFactor>> Tracker::manhattanRotationPriors(
+    const optimize::BAProblem& problem) const {
+  std::vector<std::shared_ptr<optimize::BAFactor>> factors;
+  if (!manhattan_ || !R_world_mf_ || !(manhattanParams_.baRotationSigmaDeg > 0.0)) return factors;
+  const double sigma = manhattanParams_.baRotationSigmaDeg * M_PI / 180.0;
+  for (const auto& [id, kf] : problem.keyframes) {
+    if (kf.fixed) continue;
+    const auto mf = keyFrameManhattan_.find(id);
+    if (mf == keyFrameManhattan_.end()) continue;
+    double deviation = 0.0;
+    const Eigen::Matrix3d R_kf_mf =
+        manhattan::alignToReference(mf->second, kf.T_cam_world.linear() * *R_world_mf_, &deviation);
+    if (deviation > manhattanParams_.maxPriorDeviationDeg) continue;
+    factors.push_back(std::make_shared<optimize::RotationPriorFactor>(id, R_kf_mf * R_world_mf_->transpose(), sigma));
+  }
+  return factors;
 }
 
 bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_cam_world,
@@ -592,7 +613,7 @@ bool Tracker::relocalize(Frame& frame) {
   return false;
 }
 
-map::KeyFrameId Tracker::createKeyFrame(const Frame& frame) {
+map::KeyFrameId Tracker::createKeyFrame(const Frame& frame, bool manhattanTracked) {
   const map::KeyFrameId id = map_.addKeyFrame(toKeyFrame(frame));
   std::vector<map::MapPointId> touched;
   for (std::size_t i = 0; i < frame.size(); ++i) {
@@ -605,6 +626,9 @@ map::KeyFrameId Tracker::createKeyFrame(const Frame& frame) {
     map_.updateNormalAndDepth(p);
   }
   map_.connectToSpanningTree(id);
+  if (manhattan_ && manhattanTracked && frame.R_cam_mf) keyFrameManhattan_[id] = *frame.R_cam_mf;
+  for (auto it = keyFrameManhattan_.begin(); it != keyFrameManhattan_.end();)
+    it = map_.hasKeyFrame(it->first) ? std::next(it) : keyFrameManhattan_.erase(it);  // culled keyframes
   referenceKeyFrame_ = id;
   lastKeyFrameFrame_ = frame.index;
   return id;
@@ -652,6 +676,11 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
         R_world_mf_ = reference.T_cam_world.linear().transpose() * *reference.R_cam_mf;
       else if (frame.R_cam_mf)
         R_world_mf_ = frame.T_cam_world.linear().transpose() * *frame.R_cam_mf;
+      // Rotation priors only for keyframes whose Manhattan frame the system trusted (manhattanRotationPriors).
+      if (manhattan_ && init.manhattanRotation && reference.R_cam_mf && frame.R_cam_mf) {
+        keyFrameManhattan_[init.kf1] = *reference.R_cam_mf;
+        keyFrameManhattan_[init.kf2] = *frame.R_cam_mf;
+      }
       referenceKeyFrame_ = init.kf2;
       lastKeyFrameFrame_ = frame.index;
       // No velocity yet (as ORB-SLAM after initialization): the next frame is tracked against the reference keyframe.
@@ -794,7 +823,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   kin.directReferenceInView = rep.direct.referenceInView;
   kin.directReferenceActive = rep.direct.referenceActive;
   if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {
-    res.newKeyFrames.push_back(createKeyFrame(frame));
+    res.newKeyFrames.push_back(createKeyFrame(frame, manhattanTracked));
     rep.keyFrame = true;
   }
   res.hasPose = true;

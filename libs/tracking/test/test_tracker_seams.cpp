@@ -99,7 +99,7 @@ std::array<int, 4> trackWith(std::shared_ptr<const map::PointUsePolicy> policy) 
   int oddInOptimization = 0, oddMatched = 0, oddObserved = 0;
   for (const Eigen::Vector3d& p : *seen) oddInOptimization += oddPositions.count({p.x(), p.y()}) ? 1 : 0;
   for (map::MapPointId id : f.mapPointIds) oddMatched += id != map::kNoMapPoint && id % 2 == 1 ? 1 : 0;
-  const map::KeyFrameId kf = tracker.createKeyFrame(f);
+  const map::KeyFrameId kf = tracker.createKeyFrame(f, false);
   for (map::MapPointId id : w.map.pointsOf(kf)) oddObserved += id % 2 == 1 ? 1 : 0;
   return {inliers, oddInOptimization, oddMatched, oddObserved};
 }

@@ -25,6 +25,8 @@ struct InitializationOutcome {
   std::string message;  ///< why not / what was built
   int matches = 0;
   map::KeyFrameId kf1 = map::kNoKeyFrame, kf2 = map::kNoKeyFrame;
+  /// The relative rotation came from the two frames' Manhattan frames (ManhattanInitializer's decoupled path).
+  bool manhattanRotation = false;
 };
 
 class MapInitializer {

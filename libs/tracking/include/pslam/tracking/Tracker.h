@@ -17,6 +17,7 @@
 #include "pslam/geometry/Pnp.h"
 #include "pslam/map/Map.h"
 #include "pslam/map/PointUsePolicy.h"
+#include "pslam/optimize/BundleAdjustment.h"
 #include "pslam/tracking/DirectPointSource.h"
 #include "pslam/tracking/Frame.h"
 #include "pslam/tracking/KeyFrameDecision.h"
@@ -93,6 +94,14 @@ struct ManhattanPathParams {
   /// §4.4.2 "Pose Refinement": the local-map step optimizes all 6 DoF from the Manhattan estimate (true), or the
   /// translation only with the Manhattan rotation kept (false).
   bool refinePose = true;
+  /// > 0: local BA holds every free keyframe whose frame had a validated Manhattan frame near the rotation that
+  /// frame gives against the global one (R_kf_mf R_world_mf^T, optimize::RotationPriorFactor, this sigma per
+  /// axis), so the map's rotation does not drift away from the Manhattan world. Without it the map drifts by
+  /// 2-3 deg over 300 low-texture frames, the Manhattan rotation then disagrees with the map it is tracked
+  /// against, its translation-only fit loses half of its matches and tracking is lost (doc/structure.md).
+  /// 0 = the thesis' BA, points and lines only (§4.4.2 "Pose Refinement"); 0.5 deg suits normals within a
+  /// degree (depth, ground truth).
+  double baRotationSigmaDeg = 0.5;
 
   template <class V>
   void visitFields(V& v) {
@@ -106,6 +115,7 @@ struct ManhattanPathParams {
     PSLAM_FIELD(v, validationMinInliers, atLeast(0), "... of which this many must be inliers");
     PSLAM_FIELD(v, validationMinRatio, inClosed(0, 1), "... and this share of those in view");
     PSLAM_FIELD(v, refinePose, anyValue, "local-map step: 6 DoF from the Manhattan estimate (true) or translation only");
+    PSLAM_FIELD(v, baRotationSigmaDeg, inClosed(0, 45), "local BA: sigma of the keyframes' Manhattan rotation priors, 0 = none");
   }
   PSLAM_PARAMS("Manhattan")
 };
@@ -191,6 +201,12 @@ class Tracker {
   void enableManhattanPath(ManhattanPathParams params, std::unique_ptr<PoseSolver> solver);
   /// R_world_mf of the global Manhattan frame, once known.
   const std::optional<Eigen::Matrix3d>& worldManhattanFrame() const { return R_world_mf_; }
+  /// Rotation priors for the free keyframes of a BA window (ManhattanPathParams::baRotationSigmaDeg): each
+  /// keyframe's Manhattan frame, labelled as its current pose predicts, against the global one. Only keyframes
+  /// whose frame the Manhattan path tracked (its rotation validated, §4.4.2) or the decoupled initializer built
+  /// have one: a scene whose "Manhattan frames" never validate (a road) gets no prior at all. A keyframe whose
+  /// Manhattan frame is more than maxPriorDeviationDeg from its pose gets none. Empty when the sigma is 0.
+  std::vector<std::shared_ptr<optimize::BAFactor>> manhattanRotationPriors(const optimize::BAProblem& problem) const;
   /// Line segments join pose optimization through `source` (eq. 2.59, §2.4.4); null (default) = no lines.
   void setLineSource(std::shared_ptr<LineSource> source) { lines_ = std::move(source); }
   bool mapUpdatesEnabled() const { return mapUpdates_; }
@@ -229,7 +245,9 @@ class Tracker {
   /// The rotation prior R_cam_world of `frame` from its Manhattan frame and the global one, when it is within
   /// maxPriorDeviationDeg of the motion model's prediction; else nullopt with the reason in `report`.
   std::optional<Eigen::Matrix3d> manhattanRotation(const Frame& frame, ManhattanFrameReport& report) const;
-  map::KeyFrameId createKeyFrame(const Frame& frame);
+  /// `manhattanTracked`: the frame's pose came from the Manhattan path (validated), so its Manhattan frame is kept
+  /// for the keyframe's rotation prior.
+  map::KeyFrameId createKeyFrame(const Frame& frame, bool manhattanTracked);
   /// §3.4.2: applies the measurements of the frame's matches (every match that entered pose optimization in
   /// the tracking attempt that succeeded, outliers of the pose included) to the points' models. Returns the
   /// number of depth updates. Nothing without a learning policy or in localization-only mode.
@@ -275,6 +293,8 @@ class Tracker {
   ManhattanPathParams manhattanParams_;
   std::unique_ptr<PoseSolver> manhattanSolver_;
   std::optional<Eigen::Matrix3d> R_world_mf_;
+  /// R_cam_mf of the keyframes whose frame had a Manhattan frame (manhattanRotationPriors).
+  std::map<map::KeyFrameId, Eigen::Matrix3d> keyFrameManhattan_;
   /// Visibility counters of local-map tracking are held back while a Manhattan attempt may still be rejected.
   bool deferCounters_ = false;
   std::vector<map::MapPointId> deferredVisible_, deferredFound_;
