@@ -403,9 +403,12 @@ TrackResult System::track(const datasets::Frame& input) {
         for (map::KeyFrameId kf : res.newKeyFrames) s.directFrontEnd->addKeyFrame(kf, grey, semantic, true);
       }
     }
-    // Threaded: the pose relative to the reference keyframe is read under the same lock as tracking, since the
-    // mapping thread may move the keyframe right after.
-    if (s.threaded) relativeToReference(s, res, reference, T_cam_ref, root);
+    // The pose relative to the reference keyframe as tracking left it, before local mapping (ORB-SLAM's relative
+    // frame poses): a frame that made a keyframe is that keyframe (identity) and follows every later refinement of
+    // it, the local BA it triggers included. Taking it after local mapping instead kept such a frame at its pre-BA
+    // pose in the moved map (single-frame jumps of 3-5x the step where BA moves keyframes a lot). Threaded: read
+    // under the same lock as tracking, since the mapping thread may move the keyframe right after.
+    relativeToReference(s, res, reference, T_cam_ref, root);
   }
 
   // Local mapping: in this thread (sequential, deterministic) or queued for the mapping thread.
@@ -420,9 +423,6 @@ TrackResult System::track(const datasets::Frame& input) {
       s.queueCv.notify_all();
     }
   }
-  // Sequential: relative to the reference keyframe as local mapping left it (the frame follows later
-  // refinements of that keyframe from here on).
-  if (!s.threaded) relativeToReference(s, res, reference, T_cam_ref, root);
 
   // Bookkeeping of the trajectory and the counters (under the map lock when threaded: the getters take it).
   std::unique_lock<std::mutex> bookLock(s.mapMutex, std::defer_lock);
