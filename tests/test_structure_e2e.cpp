@@ -130,10 +130,7 @@ TEST(StructureE2E, FallbackWhereNormalsVanishThenTheManhattanPathAgain) {
   for (std::size_t i = 42; i < run.frames.size(); ++i) back += run.frames[i].report.manhattan.mode == "manhattan" ? 1 : 0;
   EXPECT_GE(back, static_cast<int>(run.frames.size() - 42) * 8 / 10) << "the Manhattan path was not taken again";
   EXPECT_EQ(run.summary["frames_lost"].get<std::size_t>(), 0u);
-  // A sanity bound (2 % of the 4.6 m path), not an accuracy claim: on this 70-frame clip with a 10-frame gap the
-  // ATE moves between 0.04 and 0.07 m with the BA rotation prior's sigma (0 / 0.5 / 1 / 2 deg: 0.045 / 0.073 /
-  // 0.038 / 0.071 m); the accuracy is measured on 300-frame runs (doc/structure.md).
-  EXPECT_LT(ateSim3(rawlog.parent_path() / "corridor_groundtruth.txt", run.trajectory), 0.10);
+  EXPECT_LT(ateSim3(rawlog.parent_path() / "corridor_groundtruth.txt", run.trajectory), 0.05);
 }
 
 TEST(StructureE2E, ManhattanPathRepeatsBitForBitAndDiffersFromPointOnly) {
