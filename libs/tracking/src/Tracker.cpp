@@ -302,17 +302,22 @@ std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, Ma
     report.reason = "no pose prediction";
     return std::nullopt;
   }
-  // The frame's axes re-labelled to the prediction's (the mean-shift tracker keeps labels from frame to frame,
-  // but re-initializations may permute them), then R_cam_world = R_cam_mf R_world_mf^T (§4.4.2).
-  const Eigen::Matrix3d R_pred = predictedPose().linear();
   double deviation = 0.0;
-  const Eigen::Matrix3d R_cam_mf = manhattan::alignToReference(*frame.R_cam_mf, R_pred * *R_world_mf_, &deviation);
+  const Eigen::Matrix3d R_cam_world = rotationFromManhattanFrame(*frame.R_cam_mf, predictedPose().linear(), deviation);
   report.priorDeviationDeg = deviation;
   if (deviation > manhattanParams_.maxPriorDeviationDeg) {
     report.reason = "Manhattan rotation " + std::to_string(deviation) + " deg from the prediction";
     return std::nullopt;
   }
-  return R_cam_mf * R_world_mf_->transpose();
+  return R_cam_world;
+}
+
+Eigen::Matrix3d Tracker::rotationFromManhattanFrame(const Eigen::Matrix3d& R_cam_mf, const Eigen::Matrix3d& R_guess,
+                                                    double& deviationDeg) const {
+  // The axes re-labelled to the guess's (the mean-shift tracker keeps labels from frame to frame, but
+  // re-initializations may permute them), then R_cam_world = R_cam_mf R_world_mf^T (§4.4.2).
+  const Eigen::Matrix3d labelled = manhattan::alignToReference(R_cam_mf, R_guess * *R_world_mf_, &deviationDeg);
+  return labelled * R_world_mf_->transpose();
 }
 
 std::vector<std::shared_ptr<optimize::BAFactor>> Tracker::manhattanRotationPriors(
@@ -325,10 +330,9 @@ std::vector<std::shared_ptr<optimize::BAFactor>> Tracker::manhattanRotationPrior
     const auto mf = keyFrameManhattan_.find(id);
     if (mf == keyFrameManhattan_.end()) continue;
     double deviation = 0.0;
-    const Eigen::Matrix3d R_kf_mf =
-        manhattan::alignToReference(mf->second, kf.T_cam_world.linear() * *R_world_mf_, &deviation);
+    const Eigen::Matrix3d R_kf_world = rotationFromManhattanFrame(mf->second, kf.T_cam_world.linear(), deviation);
     if (deviation > manhattanParams_.maxPriorDeviationDeg) continue;
-    factors.push_back(std::make_shared<optimize::RotationPriorFactor>(id, R_kf_mf * R_world_mf_->transpose(), sigma));
+    factors.push_back(std::make_shared<optimize::RotationPriorFactor>(id, R_kf_world, sigma));
   }
   return factors;
 }

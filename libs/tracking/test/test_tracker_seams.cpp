@@ -10,6 +10,7 @@
 
 #include "SyntheticScene.h"
 #include "pslam/core/Error.h"
+#include "pslam/manhattan/ManhattanTracker.h"
 #include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
 #include "pslam/tracking/Tracker.h"
@@ -310,7 +311,7 @@ TEST(MonocularInitializer, MinStaticProbabilityKeepsDynamicKeypointsOutOfTheInit
 
 namespace {
 double rotationErrorDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle() * 180.0 / M_PI;
+  return manhattan::rotationAngleDeg(a.linear(), b.linear());
 }
 }  // namespace
 

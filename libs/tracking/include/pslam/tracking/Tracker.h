@@ -245,6 +245,10 @@ class Tracker {
   /// The rotation prior R_cam_world of `frame` from its Manhattan frame and the global one, when it is within
   /// maxPriorDeviationDeg of the motion model's prediction; else nullopt with the reason in `report`.
   std::optional<Eigen::Matrix3d> manhattanRotation(const Frame& frame, ManhattanFrameReport& report) const;
+  /// R_cam_world from a Manhattan frame R_cam_mf and the global one (R_world_mf_ must be known), the axes
+  /// labelled as the rotation guess R_guess predicts; `deviationDeg` = the angle between the two.
+  Eigen::Matrix3d rotationFromManhattanFrame(const Eigen::Matrix3d& R_cam_mf, const Eigen::Matrix3d& R_guess,
+                                             double& deviationDeg) const;
   /// `manhattanTracked`: the frame's pose came from the Manhattan path (validated), so its Manhattan frame is kept
   /// for the keyframe's rotation prior.
   map::KeyFrameId createKeyFrame(const Frame& frame, bool manhattanTracked);
