@@ -21,6 +21,11 @@ void requireOrbDescriptors(const cv::Mat& d, const char* ctx, const char* name) 
 
 }  // namespace
 
+// The Debian toolchain targets baseline x86-64, where __builtin_popcountll is a table-free bit-twiddling call;
+// on x86-64 a second clone uses the POPCNT instruction and the loader picks it when the CPU has it (GCC ifunc).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("popcnt", "default")))
+#endif
 int hammingDistance256(const uint8_t* a, const uint8_t* b) {
   int dist = 0;
   for (int k = 0; k < 4; ++k) {
