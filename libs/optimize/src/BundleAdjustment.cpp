@@ -1,5 +1,7 @@
 #include "pslam/optimize/BundleAdjustment.h"
 
+#include <atomic>
+
 #include <algorithm>
 #include <set>
 #include <chrono>
@@ -135,10 +137,22 @@ double rmsPixels(const BAProblem& problem, const State& state, const std::vector
 // history. The pass therefore optimizes one contiguous copy laid out as [poses | shared blocks | inverse depths |
 // factor landmarks] (ids in order, factor blocks in first-use order) and writes it back afterwards: the
 // elimination order, and with it every floating-point result, is the same from run to run and process to process.
+/// Ends a Ceres solve after the current iteration once `stop` is set (the best point so far is kept).
+class StopCallback : public ceres::IterationCallback {
+ public:
+  explicit StopCallback(const std::atomic<bool>* stop) : stop_(stop) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return stop_ && stop_->load() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* stop_;
+};
+
 ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const std::vector<bool>& excluded,
                                  const std::vector<bool>& factorExcluded,
                                  const std::map<KeyFrameId, bool>& keyframeFixed, bool robust, int iterations,
-                                 const BundleAdjustmentParams& params, int& residualBlocks) {
+                                 const BundleAdjustmentParams& params, int& residualBlocks, const std::atomic<bool>* stop) {
   ceres::HuberLoss huber(params.huberDelta);
   ceres::Problem::Options problemOptions;
   problemOptions.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -266,12 +280,15 @@ ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const s
   options.function_tolerance = params.functionTolerance;
   options.num_threads = params.numThreads;
   options.logging_type = ceres::SILENT;
+  // ORB-SLAM's abort flag: a stop request ends the pass after the current iteration, keeping its best point.
+  StopCallback stopCallback(stop);
+  if (stop) options.callbacks.push_back(&stopCallback);
   ceres::Solve(options, &ceresProblem, &summary);
   return summary;
 }
 
 BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, const std::map<KeyFrameId, bool>& fixed,
-             int firstIterations, int secondIterations) {
+             int firstIterations, int secondIterations, const std::atomic<bool>* stop = nullptr) {
   const auto start = std::chrono::steady_clock::now();
   State state(problem);
   const State initialState(problem);
@@ -281,7 +298,7 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
   std::vector<bool> factorExcluded(problem.factors.size(), false);
   int blocks = 0;
   const ceres::Solver::Summary first =
-      solvePass(problem, state, excluded, factorExcluded, fixed, true, firstIterations, params, blocks);
+      solvePass(problem, state, excluded, factorExcluded, fixed, true, firstIterations, params, blocks, stop);
   result.residualBlocks = blocks;
   result.initialCost = first.initial_cost;
   result.finalCost = first.final_cost;
@@ -307,11 +324,14 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
     for (double v : r) chi2 += v * v;
     return !(chi2 <= f.chi2Threshold());
   };
-  if (secondIterations > 0) {
+  result.stopped = stop && stop->load();
+  // Stopped: no second pass (ORB-SLAM's bDoMore = false); the outliers are still found and reported below.
+  if (secondIterations > 0 && !result.stopped) {
     for (std::size_t i = 0; i < excluded.size(); ++i) excluded[i] = isOutlier(i);
     for (std::size_t i = 0; i < factorExcluded.size(); ++i) factorExcluded[i] = isFactorOutlier(i);
     const ceres::Solver::Summary second =
-        solvePass(problem, state, excluded, factorExcluded, fixed, false, secondIterations, params, blocks);
+        solvePass(problem, state, excluded, factorExcluded, fixed, false, secondIterations, params, blocks, stop);
+    result.stopped = stop && stop->load();
     if (blocks > 0) {
       result.finalCost = second.final_cost;
       result.iterations += static_cast<int>(second.iterations.size());
@@ -350,7 +370,8 @@ BAResult run(const BAProblem& problem, const BundleAdjustmentParams& params, con
 
 }  // namespace
 
-BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params) {
+BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params,
+                               const std::atomic<bool>* stop) {
   params.check();
   validate(problem);
   std::map<KeyFrameId, bool> fixed;
@@ -361,7 +382,7 @@ BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentP
   }
   require(anyFixed || problem.keyframes.empty(), "local bundle adjustment",
           "no fixed keyframe: the gauge (world frame) would be free");
-  return run(problem, params, fixed, params.firstPassIterations, params.secondPassIterations);
+  return run(problem, params, fixed, params.firstPassIterations, params.secondPassIterations, stop);
 }
 
 BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params) {

@@ -3,6 +3,8 @@
 // runs are repeatable; and the round trip through pslam::map::Map.
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include <mrpt/config/CConfigFileMemory.h>
 
 #include "SyntheticProblem.h"
@@ -118,6 +120,32 @@ TEST(LocalBA, DeterministicAndSecondPassMatters) {
     errOne += centreError(c.poses.at(id), s.truth.keyframes.at(id).T_cam_world);
   }
   EXPECT_LT(errTwo, errOne);
+}
+
+// ORB-SLAM's abort flag: set before the solve, the first pass ends after Ceres' first iteration and the second
+// pass is skipped; the result is still complete (poses, depths, outliers) and says it was stopped. Unset, the
+// flag changes nothing.
+TEST(LocalBA, StopFlagEndsTheSolveEarlyAndSkipsTheSecondPass) {
+  SyntheticOptions opt;
+  opt.points = 200;
+  opt.outlierFraction = 0.1;
+  const SyntheticBA s = makeSyntheticBA(opt);
+  const BAResult full = localBundleAdjustment(s.problem);
+  std::atomic<bool> stop{false};
+  const BAResult unset = localBundleAdjustment(s.problem, {}, &stop);
+  EXPECT_FALSE(unset.stopped);
+  EXPECT_EQ(unset.iterations, full.iterations);
+  EXPECT_EQ(unset.inverseDepths, full.inverseDepths);
+  stop = true;
+  const BAResult stopped = localBundleAdjustment(s.problem, {}, &stop);
+  EXPECT_TRUE(stopped.stopped);
+  EXPECT_FALSE(full.stopped);
+  EXPECT_LE(stopped.iterations, 2) << "the first pass went on after the stop request";
+  EXPECT_GT(full.iterations, stopped.iterations);
+  EXPECT_EQ(stopped.poses.size(), full.poses.size());
+  EXPECT_EQ(stopped.inverseDepths.size(), full.inverseDepths.size());
+  EXPECT_FALSE(stopped.outliers.empty());
+  EXPECT_GE(stopped.finalCost, full.finalCost);
 }
 
 TEST(LocalBA, RejectsInconsistentInput) {

@@ -3,6 +3,7 @@
 // SPARSE_SCHUR on SuiteSparse, inverse depths eliminated first, Huber loss on whitened residuals.
 // The problem is described on plain types (ids, Eigen, intrinsics); MapAdapter.h builds it from a
 // pslam::map::Map and writes the result back.
+#include <atomic>
 #include <cstddef>
 #include <map>
 #include <memory>
@@ -55,6 +56,7 @@ struct BAResult {
   /// inliers at the end.
   double initialRmsPixels = 0.0, finalRmsPixels = 0.0;
   int iterations = 0;       ///< LM iterations over both passes
+  bool stopped = false;     ///< a stop request ended it early (no second pass)
   int residualBlocks = 0;   ///< in the first pass
   double solveSeconds = 0.0;         ///< wall time of the whole call
   double jacobianSeconds = 0.0;      ///< Ceres: residual + Jacobian evaluation, both passes
@@ -65,7 +67,11 @@ struct BAResult {
 /// chi2 > threshold or negative depth are dropped and secondPassIterations run without the loss. Which
 /// keyframes/points are free is given by their `fixed` flags. Throws pslam::Error on inconsistent input
 /// (unknown ids, non-finite values, no fixed keyframe).
-BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {});
+/// `stop` (optional, may be set from another thread): ORB-SLAM's abort flag. Once set, the running pass ends after
+/// its current iteration and the second pass is skipped; the result (outliers included) is that of the point
+/// reached, and BAResult::stopped says so.
+BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {},
+                               const std::atomic<bool>* stop = nullptr);
 
 /// Global BA of a (small, e.g. initial two-view) map: the keyframe with the lowest id is fixed in addition
 /// to any flagged ones, globalIterations with the Huber loss; outliers are reported, not removed.
