@@ -373,7 +373,17 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
     const Eigen::Matrix3d R1 = kf1.T_cam_world.linear(), R2 = kf2.T_cam_world.linear();
     const Eigen::Vector3d t1 = kf1.T_cam_world.translation(), t2 = kf2.T_cam_world.translation();
     const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(K1, R1, t1, K2, R2, t2);
-    const std::vector<PairMatch> matches = searchForTriangulation(kf1, kf2, F12, params_, TriangulationSearch::Guided);
+    std::vector<PairMatch> matches;
+    if (!outsideMapLock_) {
+      matches = searchForTriangulation(kf1, kf2, F12, params_, TriangulationSearch::Guided);
+    } else {
+      // The search (most of this step's time) runs outside the map lock on copies of the two keyframes, taken
+      // with the lock held: tracking may insert a keyframe and link observations (covisibility) meanwhile.
+      // Only this mapper binds keypoints of kf1 and kf2, so the free keypoints the copies show are still free.
+      const KeyFrame copy1 = kf1, copy2 = kf2;
+      if (!runOutsideMapLock([&] { matches = searchForTriangulation(copy1, copy2, F12, params_, TriangulationSearch::Guided); }))
+        return {};  // the map was reset: kfId is gone
+    }
     const geometry::Matrix34d P1 = geometry::projectionMatrix(K1, R1, t1), P2 = geometry::projectionMatrix(K2, R2, t2);
     const double ratioFactor = params_.scaleConsistencyFactor * kf1.scaleFactors.at(std::min(1, kf1.numLevels() - 1));
 
@@ -404,6 +414,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
 
       // Inverse-depth point (eq. 3.1) anchored in the keypoint of the NEW keyframe, as ORB-SLAM's
       // reference keyframe of a point created here.
+      if (kf1.mapPointIds[m.i1] != map::kNoMapPoint || kf2.mapPointIds[m.i2] != map::kNoMapPoint) continue;
       const MapPointId id = map_.addMapPoint(kfId, m.i1, X);
       map_.addObservation(id, nId, m.i2);
       map_.computeDistinctiveDescriptor(id);
@@ -555,7 +566,17 @@ optimize::MapUpdateSummary LocalMapper::runLocalBundleAdjustment(KeyFrameId kfId
     problem.factors.insert(problem.factors.end(), f.begin(), f.end());
   }
   hookBegin.push_back(problem.factors.size());
-  const optimize::BAResult result = optimize::localBundleAdjustment(problem, params_.ba);
+  optimize::BAResult result;
+  const auto solve = [&] { result = optimize::localBundleAdjustment(problem, params_.ba, &stopBundleAdjustment_); };
+  // The problem holds copies of the poses and points, so its solve may run outside the map lock. Factors of
+  // other landmark kinds optimize their landmarks in place (BAFactor::landmarkBlocks), which tracking reads: a
+  // problem with any of them is solved with the lock held.
+  bool landmarksInPlace = false;
+  for (const auto& f : problem.factors) landmarksInPlace = landmarksInPlace || !f->landmarkBlocks().empty();
+  if (landmarksInPlace)
+    solve();
+  else if (!runOutsideMapLock(solve))
+    return {};  // the map was reset while solving: nothing to write back
   if (resultOut) *resultOut = result;
   std::vector<bool> outliers(problem.factors.size(), false);
   for (std::size_t i : result.factorOutliers)
@@ -586,11 +607,22 @@ int LocalMapper::cullKeyFrames(KeyFrameId kfId) {
 
 // ------------------------------------------------------------------------------------ all steps
 
+bool LocalMapper::runOutsideMapLock(const std::function<void()>& computation) {
+  if (!outsideMapLock_) {
+    computation();
+    return true;
+  }
+  if (!outsideMapLock_(computation)) mapChanged_ = true;
+  return !mapChanged_;
+}
+
 LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vector<MapPointId>& recentlyAddedByTracking,
                                                 bool measuredByTracking) {
   LocalMappingReport report;
   const auto t0 = Clock::now();
   landmarkUpdates_ = 0;
+  mapChanged_ = false;
+  stopBundleAdjustment_ = false;
   auto t = Clock::now();
   processNewKeyFrame(kfId, recentlyAddedByTracking, measuredByTracking);
   report.processMs = msSince(t);
@@ -603,10 +635,15 @@ LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vect
   t = Clock::now();
   report.newPoints = static_cast<int>(createNewMapPoints(kfId).size());
   report.triangulationMs = msSince(t);
+  if (mapChanged_) {
+    report.mapChanged = true;
+    return report;
+  }
 
   t = Clock::now();
   report.fusedPoints = searchInNeighbors(kfId);
   report.fusionMs = msSince(t);
+  if (newPointsReady_) newPointsReady_(kfId);
 
   if (params_.localBundleAdjustment && map_.numKeyFrames() > 2) {
     t = Clock::now();
@@ -616,7 +653,12 @@ LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vect
     report.baPointsErased = summary.pointsErased;
     report.baInitialRmsPixels = result.initialRmsPixels;
     report.baFinalRmsPixels = result.finalRmsPixels;
+    report.baStopped = result.stopped;
     report.localBaMs = msSince(t);
+    if (mapChanged_) {
+      report.mapChanged = true;
+      return report;
+    }
   }
 
   if (params_.cullKeyFrames) {

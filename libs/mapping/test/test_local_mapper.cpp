@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 
 #include <mrpt/config/CConfigFileMemory.h>
@@ -419,8 +420,9 @@ TEST(LocalMapper, EveryBAFactorHookGetsTheOutlierFlagsOfItsOwnFactors) {
 }
 
 /// Tracker + local mapping over `numSlots` keyframes; the first two come with an initial map of 60 points.
+/// `outsideMapLock`: the threaded mode's runner (LocalMapper::setOutsideMapLock), none = sequential.
 map::Map runSequence(const LocalMappingParams& params, int numSlots, std::vector<LocalMappingReport>* reports,
-                     Scene* sceneOut = nullptr) {
+                     Scene* sceneOut = nullptr, LocalMapper::OutsideMapLock outsideMapLock = nullptr) {
   std::mt19937 rng(31);
   Scene s = makeScene(300, 17);
   map::Map map;
@@ -428,6 +430,7 @@ map::Map runSequence(const LocalMappingParams& params, int numSlots, std::vector
   addKeyFrame(map, s, 1, rng);
   const auto initial = addTruePoints(map, s, 0, 60, 0, {0, 1});
   LocalMapper mapper(map, params);
+  if (outsideMapLock) mapper.setOutsideMapLock(outsideMapLock);
   reports->push_back(mapper.processKeyFrame(s.keyframes[0], {}));
   map.checkInvariants("slot 0");
   reports->push_back(mapper.processKeyFrame(s.keyframes[1], initial));
@@ -469,6 +472,93 @@ TEST(LocalMapper, SequenceKeepsInvariantsGrowsAnAccurateMapAndIsDeterministic) {
     ++checked;
   }
   EXPECT_GT(checked, 0);
+}
+
+// Threaded mode: the triangulation search runs on copies of the keyframe pair and the BA solve on its problem,
+// outside the map lock. With a runner that only runs them, the map is the sequential one bit for bit.
+TEST(LocalMapper, ComputationsOutsideTheMapLockGiveTheSequentialMap) {
+  for (const auto model : {landmarks::MapPointModel::Heuristic, landmarks::MapPointModel::Probabilistic}) {
+    LocalMappingParams params = heuristicParams();
+    params.pointModel.policy.model = model;
+    std::vector<LocalMappingReport> r1, r2;
+    int calls = 0;
+    const map::Map inPlace = runSequence(params, 6, &r1);
+    const map::Map outside = runSequence(params, 6, &r2, nullptr, [&](const std::function<void()>& computation) {
+      ++calls;
+      computation();
+      return true;
+    });
+    EXPECT_TRUE(inPlace == outside) << "the computations on copies changed the map";
+    // Slots 2..5 each search their covisible keyframes and solve one local BA; slot 1 has its BA too.
+    EXPECT_GE(calls, 4 * 2 + 1);
+    for (const auto& r : r2) EXPECT_FALSE(r.mapChanged);
+  }
+}
+
+// A reset of the map while a computation runs outside the lock (the runner says so by returning false) stops the
+// keyframe's mapping there: nothing computed for the old map is written into whatever map there is now.
+TEST(LocalMapper, AMapResetWhileOutsideTheLockStopsTheKeyFrame) {
+  const auto prefix = [](map::Map& map, Scene& s, std::mt19937& rng, LocalMapper& mapper) {
+    addKeyFrame(map, s, 0, rng);
+    addKeyFrame(map, s, 1, rng);
+    const auto initial = addTruePoints(map, s, 0, 60, 0, {0, 1});
+    mapper.processKeyFrame(s.keyframes[0], {});
+    mapper.processKeyFrame(s.keyframes[1], initial);
+    learnMapPoints(map, s);
+    for (int slot = 2; slot < 5; ++slot) {
+      addKeyFrame(map, s, slot, rng);
+      trackKeyFrame(map, s, slot);
+      mapper.processKeyFrame(s.keyframes[slot], {});
+      learnMapPoints(map, s);
+    }
+    addKeyFrame(map, s, 5, rng);
+    trackKeyFrame(map, s, 5);
+  };
+  // How many computations slot 5 runs outside the lock (the last one is its local BA).
+  int total = 0;
+  {
+    std::mt19937 rng(31);
+    Scene s = makeScene(300, 17);
+    map::Map map;
+    LocalMapper mapper(map, heuristicParams());
+    prefix(map, s, rng, mapper);
+    mapper.setOutsideMapLock([&](const std::function<void()>& c) {
+      ++total;
+      c();
+      return true;
+    });
+    mapper.processKeyFrame(s.keyframes[5], {});
+  }
+  ASSERT_GE(total, 2);
+  for (const int failAt : {1, total}) {
+    std::mt19937 rng(31);
+    Scene s = makeScene(300, 17);
+    map::Map map;
+    LocalMapper mapper(map, heuristicParams());
+    prefix(map, s, rng, mapper);
+    const map::Map before = map;
+    int calls = 0;
+    mapper.setOutsideMapLock([&](const std::function<void()>& c) {
+      c();
+      return ++calls != failAt;  // the map was "reset" while this computation ran
+    });
+    const LocalMappingReport r = mapper.processKeyFrame(s.keyframes[5], {});
+    EXPECT_TRUE(r.mapChanged) << "fail at " << failAt;
+    EXPECT_EQ(calls, failAt) << "no computation after the reset";
+    EXPECT_EQ(r.fusedPoints, 0);
+    EXPECT_EQ(r.culledKeyFrames, 0);
+    if (failAt == 1) {
+      EXPECT_EQ(r.newPoints, 0) << "a point of the first pair's search was created in a reset map";
+      // Only the point culling before triangulation changed the map.
+      EXPECT_EQ(map.numMapPoints() + static_cast<std::size_t>(r.culledPoints), before.numMapPoints());
+    } else {
+      // The BA result is dropped: every keyframe is where triangulation and fusion left it.
+      EXPECT_GT(r.newPoints, 0);
+      EXPECT_EQ(r.baObservationsErased, 0);
+      for (const auto& [id, kf] : before.keyFrames())
+        EXPECT_TRUE(map.keyFrame(id).T_cam_world.isApprox(kf.T_cam_world, 0.0)) << "keyframe " << id << " moved";
+    }
+  }
 }
 
 TEST(LocalMapper, ProbabilisticModelUpdatesPointStatesAndActivatesConsistentPoints) {

@@ -829,6 +829,9 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {
     res.newKeyFrames.push_back(createKeyFrame(frame, manhattanTracked));
     rep.keyFrame = true;
+  } else if (mapUpdates_ && !kin.localMappingIdle) {
+    kin.localMappingIdle = true;
+    res.keyFrameWaitsForMapping = needNewKeyFrame(kin, params_.keyFrames);
   }
   res.hasPose = true;
   res.T_cam_world = frame.T_cam_world;

@@ -1,7 +1,8 @@
 #pragma once
 // Local mapping of the monocular SLAM core (thesis §2.4.1 ORB-SLAM, §3.4.3): everything ORB-SLAM's
-// LocalMapping::Run does for one new keyframe, run to completion on the caller's thread (no threads, only
-// ordered containers, so the same input gives the same map bit for bit):
+// LocalMapping::Run does for one new keyframe, run to completion on the caller's thread (ordered containers, so
+// the same input gives the same map bit for bit; in the System's threaded mode the caller holds the map lock and
+// lends it back around the triangulation search and the BA solve, see setOutsideMapLock):
 //   1. processNewKeyFrame   - appearance of the keyframe's points, covisibility, spanning-tree link
 //   2. cullRecentPoints     - MapPointCulling of recently created points (landmarks::MapPointPolicy)
 //   3. createNewMapPoints   - triangulation against the best covisible keyframes (SearchForTriangulation)
@@ -10,6 +11,7 @@
 //   6. cullKeyFrames        - KeyFrameCulling of redundant keyframes (never the first two)
 // With the probabilistic map-point model every new observation also updates the point's keypoint model
 // (§3.3, inverse depth + matching accuracy) stored in MapPoint::landmarkState. See doc/mapping.md.
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -111,6 +113,10 @@ struct LocalMappingReport {
   int baPointsErased = 0;       ///< points that lost their last observation in local BA
   int landmarkUpdates = 0;      ///< keypoint-model depth updates (masking / probabilistic; 0 for heuristic)
   double baInitialRmsPixels = 0.0, baFinalRmsPixels = 0.0;
+  /// Threaded mode: the tracker reset the map while a computation ran outside the map lock; the steps after it
+  /// were not run (the keyframe belongs to a map that no longer exists).
+  bool mapChanged = false;
+  bool baStopped = false;  ///< local BA ended early by interruptBundleAdjustment
   // Timings per step (wall clock, ms).
   double processMs = 0.0, cullPointsMs = 0.0, triangulationMs = 0.0, fusionMs = 0.0, localBaMs = 0.0,
          cullKeyFramesMs = 0.0, totalMs = 0.0;
@@ -173,6 +179,21 @@ class LocalMapper {
     baHooks_.push_back({std::move(factors), std::move(applied)});
   }
 
+  /// Threaded mode (the System shares the map between tracking and this mapper under one lock held for the whole
+  /// processKeyFrame call): `runner` runs a computation that reads no map data, only copies taken under the lock
+  /// (the triangulation search of a keyframe pair, the local BA solve), with the lock released, and returns false
+  /// when the map was reset meanwhile; processKeyFrame then stops at once and says so (LocalMappingReport::
+  /// mapChanged). No runner (sequential mode, the default): the computations run in place, on the live keyframes,
+  /// and the results are the same bit for bit as with a runner that changes nothing.
+  using OutsideMapLock = std::function<bool(const std::function<void()>& computation)>;
+  void setOutsideMapLock(OutsideMapLock runner) { outsideMapLock_ = std::move(runner); }
+  /// ORB-SLAM's InterruptBA, callable from any thread: the running (or next) local BA of the keyframe being mapped
+  /// ends after its current iteration, without the second pass. Cleared when the next keyframe's mapping starts.
+  void interruptBundleAdjustment() { stopBundleAdjustment_ = true; }
+  /// Called (map lock held) once the keyframe's new points are in the map: after triangulation and fusion, before
+  /// local BA. Threaded mode: tracking may go on from there.
+  void setNewPointsReady(std::function<void(map::KeyFrameId)> callback) { newPointsReady_ = std::move(callback); }
+
   /// Is the point used for tracking / BA (pointUsePolicy()->mayUse)?
   bool isActive(map::MapPointId point) const;
   /// The policy culling and the BA window ask (the tracker should be given the same one).
@@ -207,6 +228,12 @@ class LocalMapper {
     BAFactorsApplied applied;
   };
   std::vector<BAHooks> baHooks_;
+  OutsideMapLock outsideMapLock_;
+  std::function<void(map::KeyFrameId)> newPointsReady_;
+  bool mapChanged_ = false;  ///< the map was reset while a computation ran outside the lock
+  std::atomic<bool> stopBundleAdjustment_{false};
+  /// Runs `computation` through outsideMapLock_ (or in place); false (and mapChanged_) when the map was reset.
+  bool runOutsideMapLock(const std::function<void()>& computation);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -175,6 +175,9 @@ class Tracker {
     /// measuredByTracking); false for the keyframes of a new initial map.
     bool measuredByTracking = false;
     bool mapWasReset = false;
+    /// The frame needed a keyframe but local mapping was busy (setLocalMappingIdle(false)), so none was made:
+    /// ORB-SLAM then interrupts local BA so that mapping takes the next one sooner.
+    bool keyFrameWaitsForMapping = false;
     /// The reference frame of a successful initialization (gets a pose retroactively), else nullopt.
     std::optional<std::pair<double, Eigen::Isometry3d>> initialReferencePose;
     /// Reference keyframe after this frame (ORB-SLAM stores frame poses relative to it), kNoKeyFrame if none.
