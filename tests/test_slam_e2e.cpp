@@ -255,13 +255,53 @@ TEST(SlamE2E, DirectFeaturesJoinTrackingAndRepeatBitForBit) {
   EXPECT_LT(ateDirect, 2.0 * ateOrb + 0.005) << "direct points made the static room much worse";
 }
 
-TEST(SlamE2E, ThreadedModeTracks) {
-  const fs::path out = tempRoot() / "threaded";
-  const auto s = runSlam(out, 1, true);
+// Both ways tracking waits for the mapping thread ([System] threadedTracking), frames as fast as tracking takes
+// them: local mapping runs concurrently (its triangulation search and local BA outside the map lock), every frame
+// after initialization is tracked, and the trajectory stays as close to the ground truth as the sequential run's
+// bound. Not bit-deterministic, so the bounds are those of the sequential test, not its numbers. Also the test
+// the ThreadSanitizer job runs (scripts/run-sanitizers.sh --thread).
+TEST(SlamE2E, ThreadedModeTracksWithEitherWaitPolicy) {
+  const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
+  for (const char* policy : {"live", "afterNewPoints"}) {
+    SCOPED_TRACE(policy);
+    const fs::path out = tempRoot() / (std::string("threaded_") + policy);
+    const auto s = runSlam(out, 1, true, roomRawlog(), kConfig, {std::string("System.threadedTracking=") + policy});
+    ASSERT_TRUE(s.initialized());
+    EXPECT_LT(s.initializedAtFrame, 30);
+    EXPECT_EQ(s.framesLost, 0u);
+    EXPECT_EQ(s.resets, 0u);
+    EXPECT_GE(s.keyFrames, 3u);
+    const Trajectory est = readTumTrajectory(out / "trajectory.txt");
+    ASSERT_GE(est.size(), static_cast<std::size_t>(kFrames - 30));
+    EXPECT_LT(ateSim3(gt, est), 0.05);
+    const auto report = nlohmann::json::parse(readText(out / "report.json"));
+    EXPECT_EQ(report["mode"], "threaded");
+    EXPECT_TRUE(report["timings"].contains("local_ba"));
+    EXPECT_TRUE(report["timings"].contains("triangulation"));
+  }
+}
+
+// --realtime hands frames over at their timestamps (here 2 s of a 30 fps clip): the run lasts at least the clip's
+// duration and is otherwise a normal run.
+TEST(SlamE2E, RealtimePacingTakesTheClipsDuration) {
+  const fs::path out = tempRoot() / "realtime";
+  apps::SlamRunOptions o;
+  o.config = kConfig;
+  o.rawlog = roomRawlog();
+  o.outDir = out;
+  o.seed = 1;
+  o.threaded = true;
+  o.realtime = true;
+  o.progress = false;
+  const auto s = apps::SlamRunApp(o).run();
   ASSERT_TRUE(s.initialized());
-  EXPECT_GE(s.framesTracked, static_cast<std::size_t>(kFrames / 2));
+  const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
+  const double duration = gt.back().timestamp - gt.front().timestamp;
+  EXPECT_GE(s.wallSeconds, duration);
+  EXPECT_LE(s.framesLate, s.framesProcessed);
   const auto report = nlohmann::json::parse(readText(out / "report.json"));
-  EXPECT_EQ(report["mode"], "threaded");
+  EXPECT_TRUE(report["summary"].contains("frames_late"));
+  EXPECT_TRUE(report["summary"].contains("max_lateness_seconds"));
 }
 
 TEST(SlamE2E, RelocalizesAfterAnUntrackableFrame) {

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
       ->check(cliCheck<long long>(pslam::params::atLeast(0)));
   cli.add_option("--last", o.last, "last frame index (inclusive; default: the end)")->check(cliCheck<long long>());
   cli.add_flag("--threaded", o.threaded, "local mapping in a second thread (not deterministic)");
+  cli.add_flag("--realtime", o.realtime,
+               "hand frames over at the pace of their timestamps, as a live camera (none dropped; late ones counted)");
   std::string mapIn;
   cli.add_option("--map-in", mapIn,
                  "start from this saved map (map.slammap of an earlier run): relocalize in it, then extend it");

@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <optional>
 #include <sstream>
+#include <thread>
 
 #include "pslam/core/Error.h"
 #include "pslam/core/Progress.h"
@@ -84,6 +85,8 @@ nlohmann::json SlamRunSummary::toJson() const {
           {"frames_not_localized", framesProcessed - framesLocalized},
           {"localized_share", framesProcessed > 0 ? double(framesLocalized) / double(framesProcessed) : 0.0},
           {"first_localized_frame", firstLocalizedFrame},
+          {"frames_late", framesLate},
+          {"max_lateness_seconds", maxLatenessSeconds},
           {"wall_seconds", wallSeconds},
           {"cpu_seconds", cpuSeconds}};
 }
@@ -187,6 +190,8 @@ SlamRunSummary SlamRunApp::run() {
   Progress progress("slam-run", toProcess, options_.progress);
 
   datasets::Frame input;
+  std::optional<std::chrono::steady_clock::time_point> realtimeStart;  // --realtime: wall time of the first frame
+  double firstTimestamp = 0.0;
   std::vector<bool> localized;  // per processed frame: has a pose in the map
   while (reader.next(input)) {
     ++sum.framesRead;
@@ -205,6 +210,23 @@ SlamRunSummary SlamRunApp::run() {
       slam->setMappingEnabled(!options_.localization);
       slam->setMap(std::move(*loaded), options_.mapIn.string());
       loaded.reset();
+    }
+    if (options_.realtime) {
+      // The camera's clock: frame t is due at start + (t - t_first); waiting for it leaves the mapping thread
+      // the time between frames, as live.
+      const auto now = std::chrono::steady_clock::now();
+      if (!realtimeStart) {
+        realtimeStart = now;
+        firstTimestamp = input.timestamp;
+      }
+      const auto due = *realtimeStart + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                            std::chrono::duration<double>(input.timestamp - firstTimestamp));
+      if (now < due) {
+        std::this_thread::sleep_until(due);
+      } else if (now > due) {
+        ++sum.framesLate;
+        sum.maxLatenessSeconds = std::max(sum.maxLatenessSeconds, std::chrono::duration<double>(now - due).count());
+      }
     }
     system::TrackResult r;
     try {

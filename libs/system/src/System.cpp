@@ -5,6 +5,7 @@
 #include <condition_variable>
 #include <ctime>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <sstream>
@@ -116,7 +117,32 @@ struct System::Impl {
           [this](const std::vector<bool>& outliers) { lineFrontEnd->afterBundleAdjustment(outliers); });
     }
     // ---- end line segments
-    if (threaded) worker = std::thread([this] { mappingLoop(); });
+    if (threaded) {
+      // Local mapping holds the map lock except while it searches keyframe pairs for triangulation and solves
+      // local BA: those run on copies, with the lock released so tracking goes on. A reset meanwhile (a new map
+      // generation) ends that keyframe's mapping.
+      mapper->setOutsideMapLock([this](const std::function<void()>& computation) {
+        const int before = generation;
+        struct Relock {
+          std::unique_lock<std::mutex>& lock;
+          ~Relock() { lock.lock(); }
+        };
+        mappingLock->unlock();
+        {
+          Relock relock{*mappingLock};
+          computation();
+        }
+        return generation == before;
+      });
+      mapper->setNewPointsReady([this](map::KeyFrameId) {
+        {
+          std::lock_guard<std::mutex> lk(queueMutex);
+          pointsReadySeq = mappingSeq;
+        }
+        queueCv.notify_all();
+      });
+      worker = std::thread([this] { mappingLoop(); });
+    }
   }
 
   /// The frame's Manhattan frame from its NORMALS (Algorithm 4, labels tracked from frame to frame).
@@ -164,6 +190,7 @@ struct System::Impl {
     for (map::KeyFrameId kf : kfs) {
       if (!map.hasKeyFrame(kf)) continue;  // erased meanwhile
       const mapping::LocalMappingReport r = mapper->processKeyFrame(kf, {}, measuredByTracking);
+      if (r.mapChanged) return;  // threaded: tracking reset the map meanwhile, kf belongs to the old one
       direct::DirectCreationReport d;
       if (directFrontEnd && map.hasKeyFrame(kf)) {
         // New direct points at the keyframe's refined pose (§3.4.3), matched into its best covisible keyframe.
@@ -184,6 +211,7 @@ struct System::Impl {
                             {"landmark_updates", r.landmarkUpdates},
                             {"culled_keyframes", r.culledKeyFrames},
                             {"ba_observations_erased", r.baObservationsErased},
+                            {"ba_stopped", r.baStopped},
                             {"fused", r.fusedPoints},
                             {"map_points", map.numMapPoints()},
                             {"keyframes", map.numKeyFrames()}});
@@ -218,15 +246,20 @@ struct System::Impl {
         item = queue.front();
         queue.pop_front();
         busy = true;
+        mappingSeq = item.second.seq;
       }
+      queueCv.notify_all();  // tracking may wait for the queue to shrink
       {
-        std::lock_guard<std::mutex> mk(mapMutex);
+        std::unique_lock<std::mutex> mk(mapMutex);
+        mappingLock = &mk;  // released by the mapper around its computations on copies (setOutsideMapLock)
         // Keyframe ids restart after a reset: a queued id of an older map generation is stale.
         if (item.first == generation && mappingEnabled) mapKeyFrames({item.second.keyFrame}, item.second.measuredByTracking);
+        mappingLock = nullptr;
       }
       {
         std::lock_guard<std::mutex> lk(queueMutex);
         busy = false;
+        pointsReadySeq = std::max(pointsReadySeq, item.second.seq);  // skipped, stopped early or done
       }
       queueCv.notify_all();
     }
@@ -269,8 +302,13 @@ struct System::Impl {
   struct QueuedKeyFrame {
     map::KeyFrameId keyFrame = map::kNoKeyFrame;
     bool measuredByTracking = false;
+    std::uint64_t seq = 0;  ///< 1, 2, ... in the order tracking queued them
   };
+  std::uint64_t queuedSeq = 0;      ///< seq of the last keyframe queued
+  std::uint64_t mappingSeq = 0;     ///< seq of the keyframe being mapped
+  std::uint64_t pointsReadySeq = 0; ///< keyframes up to this seq have their new points in the map
   std::deque<std::pair<int, QueuedKeyFrame>> queue;  ///< (generation, keyframe)
+  std::unique_lock<std::mutex>* mappingLock = nullptr;  ///< the mapping thread's hold of mapMutex
   bool busy = false;
   bool stop = false;
   std::thread worker;
@@ -357,8 +395,20 @@ TrackResult System::track(const datasets::Frame& input) {
       mf = s.estimateManhattanFrame(frame, ctx);
     }
     if (s.threaded) {
-      std::lock_guard<std::mutex> lk(s.queueMutex);
-      s.tracker->setLocalMappingIdle(s.queue.empty() && !s.busy);
+      std::unique_lock<std::mutex> lk(s.queueMutex);
+      if (s.params.system.threadedTracking == "afterNewPoints") {
+        // The frame is tracked once the last keyframe's new points are in the map (its triangulation and fusion
+        // done): this frame's extraction overlaps with them, tracking with that keyframe's local BA and culling;
+        // a keyframe may be made whenever none waits for the mapping thread.
+        s.queueCv.wait(lk, [&] { return s.pointsReadySeq >= s.queuedSeq; });
+        s.tracker->setLocalMappingIdle(s.queue.empty());
+      } else {
+        // live (ORB-SLAM's): tracking goes on while a keyframe is mapped and makes a keyframe only when the mapping
+        // thread is idle (AcceptKeyFrames) or maxFrames have passed; a keyframe made meanwhile waits until the
+        // mapping thread takes it, so tracking is never more than one keyframe ahead.
+        s.queueCv.wait(lk, [&] { return s.queue.empty(); });
+        s.tracker->setLocalMappingIdle(!s.busy);
+      }
     }
     std::unique_lock<std::mutex> mk(s.mapMutex, std::defer_lock);
     if (s.threaded) mk.lock();
@@ -368,6 +418,7 @@ TrackResult System::track(const datasets::Frame& input) {
       s.lineFrontEnd->prepareFrame(frame);
     }
     res = s.tracker->track(std::move(frame), s.trackingTimings);
+    if (res.keyFrameWaitsForMapping) s.mapper->interruptBundleAdjustment();
     if (mf) {
       tracking::ManhattanFrameReport& m = res.report.manhattan;
       m.normals = hasNormals;
@@ -418,7 +469,8 @@ TrackResult System::track(const datasets::Frame& input) {
     } else {
       {
         std::lock_guard<std::mutex> lk(s.queueMutex);
-        for (map::KeyFrameId kf : res.newKeyFrames) s.queue.emplace_back(s.generation, Impl::QueuedKeyFrame{kf, res.measuredByTracking});
+        for (map::KeyFrameId kf : res.newKeyFrames)
+          s.queue.emplace_back(s.generation, Impl::QueuedKeyFrame{kf, res.measuredByTracking, ++s.queuedSeq});
       }
       s.queueCv.notify_all();
     }

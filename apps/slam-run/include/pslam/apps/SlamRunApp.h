@@ -33,6 +33,9 @@ struct SlamRunOptions {
   std::size_t first = 0;        ///< first frame index (0-based, inclusive)
   long long last = -1;          ///< last frame index (inclusive), < 0 = to the end
   bool threaded = false;        ///< overrides [System] threaded when set
+  /// Hand each frame to SLAM no earlier than its timestamp says (relative to the first processed frame), as a live
+  /// camera does; a frame whose time has passed goes at once (none is dropped). For the threaded mode's live use.
+  bool realtime = false;
   bool progress = true;
   std::filesystem::path mapIn;  ///< start from this saved map (empty: initialize a new one)
   bool localization = false;    ///< with mapIn: the map stays fixed, frames are only localized in it
@@ -43,6 +46,9 @@ struct SlamRunSummary {
   long long initializedAtFrame = -1;
   std::size_t keyFrames = 0, mapPoints = 0, resets = 0;
   double wallSeconds = 0, cpuSeconds = 0;
+  /// realtime: frames handed over after their time (tracking fell behind the camera) and the largest delay.
+  std::size_t framesLate = 0;
+  double maxLatenessSeconds = 0.0;
   /// Map reuse: the run started from a saved map (of loadedKeyFrames keyframes), localization only or not.
   bool mapLoaded = false, localization = false;
   std::size_t loadedKeyFrames = 0, loadedMapPoints = 0;
