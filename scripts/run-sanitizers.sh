@@ -6,6 +6,9 @@
 #   bash scripts/run-sanitizers.sh          # CI scope: the libraries that read files (core, datasets, eval, map)
 #                                           # with all their unit tests and the rawlog / map fuzz tests
 #   bash scripts/run-sanitizers.sh --all    # every unit and e2e test (the whole pipeline; ~25 min on 2 cores)
+#   bash scripts/run-sanitizers.sh --thread # ThreadSanitizer build of the e2e tests, running the threaded-mode
+#                                           # tests (tracking and local mapping in two threads), and the
+#                                           # local-mapping unit tests (its computations outside the map lock)
 # Env: SANITIZE_BUILD_DIR (default build-sanitize), SANITIZE_JOBS (default 2); ccache is used when installed.
 # Called by .ci/run after scripts/run-tests.sh, which has installed the dependencies.
 set -euo pipefail
@@ -14,11 +17,36 @@ SCOPE=ci
 case "${1:-}" in
   "") ;;
   --all) SCOPE=all ;;
-  -h|--help) sed -n 2,10p "$0"; exit 0 ;;
+  --thread) SCOPE=thread ;;
+  -h|--help) sed -n 2,13p "$0"; exit 0 ;;
   *) echo "run-sanitizers: unknown argument '$1' (see --help)" >&2; exit 2 ;;
 esac
 BUILD_DIR=${SANITIZE_BUILD_DIR:-build-sanitize}
 JOBS=${SANITIZE_JOBS:-${JOBS:-2}}
+
+if [[ $SCOPE == thread ]]; then
+  # TSan cannot share a build with ASan. -O1 as below. Ceres runs single-threaded in every config
+  # ([BundleAdjustment] numThreads = 1) and OpenCV's own thread pool is switched off, so the only threads are
+  # ours: tracking and the mapping thread (the H/F initializer's two std::async tasks as well).
+  BUILD_DIR=${SANITIZE_BUILD_DIR:-build-tsan}
+  FLAGS="-fsanitize=thread -fno-omit-frame-pointer -O1 -g1"
+  launcher=()
+  if command -v ccache >/dev/null 2>&1; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
+  start=$(date +%s)
+  cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Tsan -DCMAKE_CXX_FLAGS_TSAN="$FLAGS" \
+    -DCMAKE_EXE_LINKER_FLAGS_TSAN=-fsanitize=thread -DCMAKE_SHARED_LINKER_FLAGS_TSAN=-fsanitize=thread \
+    -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
+  cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper
+  built=$(date +%s)
+  export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}
+  export OPENCV_FOR_THREADS_NUM=1
+  # GTEST_FILTER: only the threaded-mode tests of the e2e binary (the others are single-threaded).
+  GTEST_FILTER='*Threaded*' ctest --test-dir "$BUILD_DIR" -R '^test_slam_e2e$' --output-on-failure
+  ctest --test-dir "$BUILD_DIR" -R '^test_local_mapper$' --output-on-failure
+  done_=$(date +%s)
+  echo "run-sanitizers (thread): build $((built - start)) s, tests $((done_ - built)) s"
+  exit 0
+fi
 
 # -O1: the sanitizers' usual trade-off (about half the -O0 run time, stacks still readable).
 # EIGEN_MALLOC_ALREADY_ALIGNED=1: under ASan Eigen switches to its own aligned allocator (it tests
