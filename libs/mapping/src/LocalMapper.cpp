@@ -187,7 +187,8 @@ namespace {
 /// Keypoints of one keyframe binned in square cells, to list those that may lie within `halfWidth` pixels of a
 /// line: the cells of every column (or row, for a steep line) between the line's values at the column's edges,
 /// widened by the half-width measured along the axis. Conservative: it never leaves out a keypoint within the
-/// band; the exact band test is still applied to each candidate.
+/// band; the exact band test is still applied to each candidate. The keypoints are stored cell by cell (order()),
+/// so a crossed cell is one contiguous range of positions.
 class EpipolarBandGrid {
  public:
   EpipolarBandGrid(const std::vector<double>& xs, const std::vector<double>& ys, double halfWidth)
@@ -198,28 +199,41 @@ class EpipolarBandGrid {
     const double x1 = *std::max_element(xs.begin(), xs.end()), y1 = *std::max_element(ys.begin(), ys.end());
     cols_ = static_cast<int>((x1 - x0_) / kCell) + 1;
     rows_ = static_cast<int>((y1 - y0_) / kCell) + 1;
-    cells_.resize(static_cast<std::size_t>(cols_) * static_cast<std::size_t>(rows_));
-    for (std::size_t n = 0; n < xs.size(); ++n) cells_[cellIndex(colOf(xs[n]), rowOf(ys[n]))].push_back(n);
-    bits_.assign((xs.size() + 63) / 64, 0);
+    // Counting sort by cell (stable: ascending indices within a cell).
+    std::vector<std::size_t> cellOf(xs.size());
+    cellStart_.assign(static_cast<std::size_t>(cols_) * static_cast<std::size_t>(rows_) + 1, 0);
+    for (std::size_t n = 0; n < xs.size(); ++n) {
+      cellOf[n] = cellIndex(colOf(xs[n]), rowOf(ys[n]));
+      ++cellStart_[cellOf[n] + 1];
+    }
+    for (std::size_t c = 1; c < cellStart_.size(); ++c) cellStart_[c] += cellStart_[c - 1];
+    order_.resize(xs.size());
+    std::vector<std::size_t> next(cellStart_.begin(), cellStart_.end() - 1);
+    for (std::size_t n = 0; n < xs.size(); ++n) order_[next[cellOf[n]]++] = n;
   }
 
-  /// Indices (ascending) of the keypoints in the cells the band around the line a x + b y + c = 0 crosses.
-  void candidates(const Eigen::Vector3d& line, std::vector<std::size_t>& out) const {
-    out.clear();
-    if (cells_.empty()) return;
-    // The cells' keypoints are marked in a bitset over the indices, read back in ascending order (cheaper than
-    // sorting the concatenated cell lists).
-    std::fill(bits_.begin(), bits_.end(), 0);
+  /// The keypoint indices, cell by cell.
+  const std::vector<std::size_t>& order() const { return order_; }
+
+  /// Calls visit(begin, end) for every cell the band around the line a x + b y + c = 0 crosses (each cell once):
+  /// its keypoints are order()[begin, end).
+  template <class Visit>
+  void forEachCrossedCell(const Eigen::Vector3d& line, Visit&& visit) const {
+    if (order_.empty()) return;
     const double a = line.x(), b = line.y(), c = line.z();
     const double norm = std::hypot(a, b);
     if (!(norm > 0.0)) return;
+    const auto cell = [&](int col, int row) {
+      const std::size_t k = cellIndex(col, row);
+      if (cellStart_[k] != cellStart_[k + 1]) visit(cellStart_[k], cellStart_[k + 1]);
+    };
     if (std::abs(b) >= std::abs(a)) {  // y = -(a x + c) / b over each column
       const double widen = halfWidth_ * norm / std::abs(b);
       for (int col = 0; col < cols_; ++col) {
         const double xa = x0_ + col * kCell, xb = xa + kCell;
         const double ya = -(a * xa + c) / b, yb = -(a * xb + c) / b;
         const int r0 = std::max(0, rowOf(std::min(ya, yb) - widen)), r1 = std::min(rows_ - 1, rowOf(std::max(ya, yb) + widen));
-        for (int row = r0; row <= r1; ++row) mark(cellIndex(col, row));
+        for (int row = r0; row <= r1; ++row) cell(col, row);
       }
     } else {  // x = -(b y + c) / a over each row
       const double widen = halfWidth_ * norm / std::abs(a);
@@ -227,16 +241,13 @@ class EpipolarBandGrid {
         const double ya = y0_ + row * kCell, yb = ya + kCell;
         const double xa = -(b * ya + c) / a, xb = -(b * yb + c) / a;
         const int c0 = std::max(0, colOf(std::min(xa, xb) - widen)), c1 = std::min(cols_ - 1, colOf(std::max(xa, xb) + widen));
-        for (int col = c0; col <= c1; ++col) mark(cellIndex(col, row));
+        for (int col = c0; col <= c1; ++col) cell(col, row);
       }
     }
-    for (std::size_t w = 0; w < bits_.size(); ++w)
-      for (std::uint64_t word = bits_[w]; word != 0; word &= word - 1)
-        out.push_back(w * 64 + static_cast<std::size_t>(__builtin_ctzll(word)));
   }
 
  private:
-  static constexpr double kCell = 32.0;  // pixels
+  static constexpr double kCell = 32.0;  // pixels (16 and 64 were slower on KITTI 00)
   int colOf(double x) const {
     const double v = std::floor((x - x0_) / kCell);
     return v < 0 ? -1 : (v >= cols_ ? cols_ : static_cast<int>(v));
@@ -248,13 +259,10 @@ class EpipolarBandGrid {
   std::size_t cellIndex(int col, int row) const {
     return static_cast<std::size_t>(row) * static_cast<std::size_t>(cols_) + static_cast<std::size_t>(col);
   }
-  void mark(std::size_t cell) const {
-    for (const std::size_t n : cells_[cell]) bits_[n >> 6] |= std::uint64_t{1} << (n & 63);
-  }
   double halfWidth_, x0_ = 0, y0_ = 0;
   int cols_ = 0, rows_ = 0;
-  std::vector<std::vector<std::size_t>> cells_;
-  mutable std::vector<std::uint64_t> bits_;  ///< scratch of candidates(): one bit per keypoint
+  std::vector<std::size_t> cellStart_;  ///< cell k's keypoints are order_[cellStart_[k], cellStart_[k + 1])
+  std::vector<std::size_t> order_;
 };
 
 /// ORB-SLAM SearchForTriangulation without a vocabulary: every unmatched keypoint of kf1 against every
@@ -282,12 +290,23 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
     bound2[n] = kEpipolarChi2 * kf2.levelSigma2.at(kf2.keypoints[free2[n]].octave);
   }
   std::vector<bool> taken2(kf2.numKeypoints(), false);
-  // Guided: only the kf2 keypoints in grid cells the band of x1's line crosses, in ascending order, so the
-  // result is that of the exhaustive scan (same candidates pass the band test, visited in the same order).
+  // Guided: only the kf2 keypoints in grid cells the band of x1's line crosses, visited cell by cell. The result
+  // is that of the exhaustive scan: the same candidates pass the band test, and the best / second-best distances
+  // and the best keypoint (the lowest index among equal distances, as the ascending scan finds it) do not depend
+  // on the visiting order.
   double maxBound2 = 0.0;
   for (double b : bound2) maxBound2 = std::max(maxBound2, b);
   const EpipolarBandGrid grid(x2s, y2s, std::sqrt(maxBound2));
-  std::vector<std::size_t> candidates;
+  // The candidates' data in the grid's cell order: a crossed cell is read as one contiguous range.
+  const std::vector<std::size_t>& order = grid.order();
+  std::vector<double> gx(order.size()), gy(order.size()), gb(order.size());
+  std::vector<std::size_t> gj(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    gx[k] = x2s[order[k]];
+    gy[k] = y2s[order[k]];
+    gb[k] = bound2[order[k]];
+    gj[k] = free2[order[k]];
+  }
 
   std::vector<PairMatch> matches;
   std::vector<int> bins;
@@ -303,35 +322,38 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
     const Eigen::Vector3d line2 = F12.transpose() * Eigen::Vector3d(x1.x(), x1.y(), 1.0);  // l2 = F12^T x1
     const double lineNorm2 = line2.head<2>().squaredNorm();
     if (!(lineNorm2 > 0.0)) continue;  // x1 at the epipole: no line
-    if (mode == TriangulationSearch::Guided) {
-      grid.candidates(line2, candidates);
-    } else {
-      candidates.resize(free2.size());
-      for (std::size_t n = 0; n < free2.size(); ++n) candidates[n] = n;
-    }
-    for (const std::size_t n : candidates) {
-      const std::size_t j = free2[n];
-      if (taken2[j]) continue;
-      const double num = line2.x() * x2s[n] + line2.y() * y2s[n] + line2.z();
-      if (num * num >= bound2[n] * lineNorm2) continue;
+    const auto consider = [&](std::size_t j, double x2x, double x2y, double bound) {
+      if (taken2[j]) return;
+      const double num = line2.x() * x2x + line2.y() * x2y + line2.z();
+      if (num * num >= bound * lineNorm2) return;
       const int dist = features::hammingDistance256(d1, kf2.descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      if (dist >= second) continue;
+      if (dist >= second) return;
       const Eigen::Vector2d x2 = kf2.pixel(j);
       const int octave2 = kf2.keypoints[j].octave;
       if (epipoleValid) {
         const double minDist = params.epipolarMinDistancePixels;
-        if ((x2 - epipole).squaredNorm() < minDist * minDist * kf2.scaleFactors.at(octave2)) continue;
+        if ((x2 - epipole).squaredNorm() < minDist * minDist * kf2.scaleFactors.at(octave2)) return;
       }
       // Same test through the geometry library (eq. 2.46), the reference for the fast band test above.
-      if (!geometry::checkDistEpipolarLine(x1, x2, F12, kf2.levelSigma2.at(octave2), kEpipolarChi2)) continue;
+      if (!geometry::checkDistEpipolarLine(x1, x2, F12, kf2.levelSigma2.at(octave2), kEpipolarChi2)) return;
       if (dist < best) {
         second = best;
         best = dist;
         bestJ = j;
         found = true;
+      } else if (dist == best && j < bestJ) {  // only out of ascending order (guided): the lower index wins
+        second = best;
+        bestJ = j;
       } else {
         second = dist;
       }
+    };
+    if (mode == TriangulationSearch::Guided) {
+      grid.forEachCrossedCell(line2, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t k = begin; k < end; ++k) consider(gj[k], gx[k], gy[k], gb[k]);
+      });
+    } else {
+      for (std::size_t n = 0; n < free2.size(); ++n) consider(free2[n], x2s[n], y2s[n], bound2[n]);
     }
     if (!found || best > params.maxDescriptorDistance) continue;
     // Optional ratio test (nnRatio < 1); ORB-SLAM2 applies none here (default nnRatio = 1).
