@@ -23,7 +23,10 @@ void requireOrbDescriptors(const cv::Mat& d, const char* ctx, const char* name) 
 
 // The Debian toolchain targets baseline x86-64, where __builtin_popcountll is a table-free bit-twiddling call;
 // on x86-64 a second clone uses the POPCNT instruction and the loader picks it when the CPU has it (GCC ifunc).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// Not in sanitizer builds: the loader runs the ifunc resolver before the sanitizer runtime is up, and the
+// instrumented resolver crashes there (seen with -fsanitize=thread).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
+    !defined(__SANITIZE_THREAD__)
 __attribute__((target_clones("popcnt", "default")))
 #endif
 int hammingDistance256(const uint8_t* a, const uint8_t* b) {
