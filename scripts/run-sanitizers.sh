@@ -26,8 +26,8 @@ JOBS=${SANITIZE_JOBS:-${JOBS:-2}}
 
 if [[ $SCOPE == thread ]]; then
   # TSan cannot share a build with ASan. -O1 as below. Ceres runs single-threaded in every config
-  # ([BundleAdjustment] numThreads = 1) and OpenCV's own thread pool is switched off, so the only threads are
-  # ours: tracking and the mapping thread (the H/F initializer's two std::async tasks as well).
+  # ([BundleAdjustment] numThreads = 1); OpenCV's and OpenMP's thread pools are switched off below, so the only
+  # threads are ours: tracking and the mapping thread (the H/F initializer's two std::async tasks as well).
   BUILD_DIR=${SANITIZE_BUILD_DIR:-build-tsan}
   FLAGS="-fsanitize=thread -fno-omit-frame-pointer -O1 -g1"
   launcher=()
@@ -38,8 +38,12 @@ if [[ $SCOPE == thread ]]; then
     -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper
   built=$(date +%s)
-  export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}
+  export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}
   export OPENCV_FOR_THREADS_NUM=1
+  # SuiteSparse's CHOLMOD (local BA's sparse Cholesky) runs OpenMP threads; uninstrumented libgomp hides their
+  # synchronization from TSan, which then reports CHOLMOD's own buffers as races. One OpenMP thread (CHOLMOD
+  # asks for its own thread count, so OMP_NUM_THREADS alone does not do it).
+  export OMP_NUM_THREADS=1 OMP_THREAD_LIMIT=1
   # GTEST_FILTER: only the threaded-mode tests of the e2e binary (the others are single-threaded).
   GTEST_FILTER='*Threaded*' ctest --test-dir "$BUILD_DIR" -R '^test_slam_e2e$' --output-on-failure
   ctest --test-dir "$BUILD_DIR" -R '^test_local_mapper$' --output-on-failure
