@@ -338,6 +338,40 @@ TEST(SlamE2E, RelocalizesAfterAnUntrackableFrame) {
   EXPECT_LE(framesAfterLoss, 3);
 }
 
+// Threaded mode through map resets: a blank frame soon after each initialization (the map still has at most
+// resetKeyFrames keyframes) loses tracking and resets the map while the mapping thread may be mapping one of its
+// keyframes, possibly outside the map lock. Keyframes of the old map must never reach the new one: the run goes
+// on, re-initializes, and ends with a consistent map and a trajectory of the last map only.
+TEST(SlamE2E, ThreadedModeSurvivesMapResetsWhileMapping) {
+  for (const char* policy : {"live", "afterNewPoints"}) {
+    SCOPED_TRACE(policy);
+    system::SlamParams params = system::loadSlamParams(kConfig.string());
+    params.system.threadedTracking = policy;
+    system::SystemOptions options;
+    options.seed = 1;
+    options.threaded = true;
+    system::System slam(params, options);
+    datasets::RawlogReader reader(roomRawlog());
+    std::size_t resets = 0, sinceInit = 0;
+    for (datasets::Frame f; reader.next(f);) {
+      if (slam.initialized() && ++sinceInit == 3) {  // 3 frames after each initialization
+        datasets::Frame blank = f;
+        blank.image = cv::Mat(f.image.size(), f.image.type(), cv::Scalar::all(128));
+        if (slam.track(blank).mapWasReset) ++resets;
+        sinceInit = 0;
+      }
+      if (slam.track(f).mapWasReset) ++resets;
+    }
+    slam.finish();
+    EXPECT_GE(resets, 2u);
+    const nlohmann::json summary = slam.summary();
+    EXPECT_EQ(summary["resets"].get<std::size_t>(), resets);
+    const map::Map m = slam.mapSnapshot();
+    EXPECT_NO_THROW(m.checkInvariants("after the threaded run"));
+    for (const auto& p : slam.trajectory()) EXPECT_TRUE(p.position.allFinite());
+  }
+}
+
 TEST(SlamE2E, SequenceWithoutStructureEndsWithEmptyTrajectoryAndWarning) {
   // Uniform grey frames: no keypoints, initialization can never succeed.
   const fs::path rawlog = tempRoot() / "blank" / "blank.rawlog";
