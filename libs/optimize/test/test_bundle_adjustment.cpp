@@ -98,11 +98,16 @@ TEST(LocalBA, NoisyConvergesToTheOptimum) {
   EXPECT_LT(falseAlarms, 0.1 * (s.isOutlier.size() - gross));
 }
 
-TEST(LocalBA, DeterministicAndSecondPassMatters) {
+/// 200 points, 10 % of the observations gross outliers.
+static SyntheticBA problemWithOutliers() {
   SyntheticOptions opt;
   opt.points = 200;
   opt.outlierFraction = 0.1;
-  const SyntheticBA s = makeSyntheticBA(opt);
+  return makeSyntheticBA(opt);
+}
+
+TEST(LocalBA, DeterministicAndSecondPassMatters) {
+  const SyntheticBA s = problemWithOutliers();
   const BAResult a = localBundleAdjustment(s.problem);
   const BAResult b = localBundleAdjustment(s.problem);
   ASSERT_EQ(a.poses.size(), b.poses.size());
@@ -126,10 +131,7 @@ TEST(LocalBA, DeterministicAndSecondPassMatters) {
 // pass is skipped; the result is still complete (poses, depths, outliers) and says it was stopped. Unset, the
 // flag changes nothing.
 TEST(LocalBA, StopFlagEndsTheSolveEarlyAndSkipsTheSecondPass) {
-  SyntheticOptions opt;
-  opt.points = 200;
-  opt.outlierFraction = 0.1;
-  const SyntheticBA s = makeSyntheticBA(opt);
+  const SyntheticBA s = problemWithOutliers();
   const BAResult full = localBundleAdjustment(s.problem);
   std::atomic<bool> stop{false};
   const BAResult unset = localBundleAdjustment(s.problem, {}, &stop);
