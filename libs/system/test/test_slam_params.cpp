@@ -61,6 +61,7 @@ TEST(SlamParams, RoundTripThroughIni) {
   p.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
   p.pointModel.keypoint.probabilityFloor = 1.0 / 510.0;
   p.system.threaded = true;
+  p.system.threadedTracking = "afterNewPoints";
   p.system.poseSolver = "manhattan3dof";
   mrpt::config::CConfigFileMemory mem(p.toIniText());
   system::SlamParams q;
@@ -78,6 +79,7 @@ TEST(SlamParams, RoundTripThroughIni) {
   EXPECT_EQ(q.mapping.pointModel.policy.model, landmarks::MapPointModel::Probabilistic);
   EXPECT_EQ(q.mapping.ba.maxLocalKeyFrames, q.bundleAdjustment.maxLocalKeyFrames);
   EXPECT_TRUE(q.system.threaded);
+  EXPECT_EQ(q.system.threadedTracking, "afterNewPoints");
   EXPECT_EQ(q.system.poseSolver, "manhattan3dof");
   EXPECT_EQ(q.system.initializer, "twoView");
   EXPECT_EQ(q.toIniText(), p.toIniText());
@@ -88,6 +90,7 @@ TEST(SlamParams, DefaultsOfTheNewKeys) {
   EXPECT_EQ(p.system.poseSolver, "full6dof");
   EXPECT_EQ(p.system.initializer, "twoView");
   EXPECT_FALSE(p.system.threaded);
+  EXPECT_EQ(p.system.threadedTracking, "live");
   EXPECT_EQ(p.pointModel.policy.model, landmarks::MapPointModel::Heuristic);
   EXPECT_EQ(p.mapping.pointModel.policy.model, landmarks::MapPointModel::Heuristic);
   const std::string text = p.toIniText();
@@ -117,6 +120,8 @@ TEST(SlamParams, InvalidValuesUseTheOneErrorFormat) {
             "[PointModel] model = orb: must be one of heuristic, masking, probabilistic");
   EXPECT_EQ(errorFor("[System]\nposeSolver =\n"), "[System] poseSolver = : must not be empty");
   EXPECT_EQ(errorFor("[System]\nthreaded = maybe\n"), "[System] threaded = maybe: not a bool (true or false)");
+  EXPECT_EQ(errorFor("[System]\nthreadedTracking = paced\n"),
+            "[System] threadedTracking = paced: must be one of live, afterNewPoints");
   EXPECT_EQ(errorFor("[ORB]\nnFeatures = 2000 extra\n"), "[ORB] nFeatures = 2000 extra: not an integer");
   EXPECT_EQ(errorFor("[ORB]\nnFeatures = 2000.7\n"), "[ORB] nFeatures = 2000.7: not an integer");
   EXPECT_EQ(errorFor("[ORB]\nscaleFactor = abc\n"), "[ORB] scaleFactor = abc: not a number");
