@@ -1,8 +1,7 @@
 #include "pslam/optimize/BundleAdjustment.h"
 
-#include <atomic>
-
 #include <algorithm>
+#include <atomic>
 #include <set>
 #include <chrono>
 #include <cmath>
@@ -129,14 +128,6 @@ double rmsPixels(const BAProblem& problem, const State& state, const std::vector
   return n > 0 ? std::sqrt(sum / n) : 0.0;
 }
 
-// One Levenberg-Marquardt pass over the observations not excluded. Returns the Ceres summary.
-//
-// Ceres orders the blocks of a Schur group by address. The keypoints' poses and inverse depths live in the
-// State's id-ordered vectors, but the factors' landmark and shared blocks are owned by the factors, each its own
-// heap object, so their addresses -- relative to each other and to the State's vectors -- change with the heap's
-// history. The pass therefore optimizes one contiguous copy laid out as [poses | shared blocks | inverse depths |
-// factor landmarks] (ids in order, factor blocks in first-use order) and writes it back afterwards: the
-// elimination order, and with it every floating-point result, is the same from run to run and process to process.
 /// Ends a Ceres solve after the current iteration once `stop` is set (the best point so far is kept).
 class StopCallback : public ceres::IterationCallback {
  public:
@@ -149,10 +140,19 @@ class StopCallback : public ceres::IterationCallback {
   const std::atomic<bool>* stop_;
 };
 
+// One Levenberg-Marquardt pass over the observations not excluded. Returns the Ceres summary.
+//
+// Ceres orders the blocks of a Schur group by address. The keypoints' poses and inverse depths live in the
+// State's id-ordered vectors, but the factors' landmark and shared blocks are owned by the factors, each its own
+// heap object, so their addresses -- relative to each other and to the State's vectors -- change with the heap's
+// history. The pass therefore optimizes one contiguous copy laid out as [poses | shared blocks | inverse depths |
+// factor landmarks] (ids in order, factor blocks in first-use order) and writes it back afterwards: the
+// elimination order, and with it every floating-point result, is the same from run to run and process to process.
 ceres::Solver::Summary solvePass(const BAProblem& problem, State& state, const std::vector<bool>& excluded,
                                  const std::vector<bool>& factorExcluded,
                                  const std::map<KeyFrameId, bool>& keyframeFixed, bool robust, int iterations,
-                                 const BundleAdjustmentParams& params, int& residualBlocks, const std::atomic<bool>* stop) {
+                                 const BundleAdjustmentParams& params, int& residualBlocks,
+                                 const std::atomic<bool>* stop) {
   ceres::HuberLoss huber(params.huberDelta);
   ceres::Problem::Options problemOptions;
   problemOptions.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
