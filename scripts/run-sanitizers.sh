@@ -23,6 +23,8 @@ case "${1:-}" in
 esac
 BUILD_DIR=${SANITIZE_BUILD_DIR:-build-sanitize}
 JOBS=${SANITIZE_JOBS:-${JOBS:-2}}
+launcher=()
+if command -v ccache >/dev/null 2>&1; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 
 if [[ $SCOPE == thread ]]; then
   # TSan cannot share a build with ASan. -O1 as below. Ceres runs single-threaded in every config
@@ -30,8 +32,6 @@ if [[ $SCOPE == thread ]]; then
   # threads are ours: tracking and the mapping thread (the H/F initializer's two std::async tasks as well).
   BUILD_DIR=${SANITIZE_BUILD_DIR:-build-tsan}
   FLAGS="-fsanitize=thread -fno-omit-frame-pointer -O1 -g1"
-  launcher=()
-  if command -v ccache >/dev/null 2>&1; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
   start=$(date +%s)
   cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Tsan -DCMAKE_CXX_FLAGS_TSAN="$FLAGS" \
     -DCMAKE_EXE_LINKER_FLAGS_TSAN=-fsanitize=thread -DCMAKE_SHARED_LINKER_FLAGS_TSAN=-fsanitize=thread \
@@ -61,9 +61,6 @@ fi
 FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -O1 -g1"
 FLAGS="$FLAGS -DEIGEN_MALLOC_ALREADY_ALIGNED=1"
 LINK_FLAGS="-fsanitize=address,undefined"
-
-launcher=()
-if command -v ccache >/dev/null 2>&1; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 
 if [[ $SCOPE == ci ]]; then
   # The libraries that parse what users hand us (rawlogs, images, maps, trajectories, ini files) and their
