@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <set>
 
 #include <Eigen/Dense>
@@ -383,6 +384,8 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
          it != map_.keyFrames().rend() && static_cast<int>(neighbours.size()) < params_.minTriangulationNeighbours; ++it)
       if (it->first != kfId && !have.count(it->first)) neighbours.push_back(it->first);
   }
+  // Threaded mode: one copy of the new keyframe for every pair's search (its free keypoints refreshed per pair).
+  std::optional<KeyFrame> copy1;
   for (KeyFrameId nId : neighbours) {
     const KeyFrame& kf1 = map_.keyFrame(kfId);
     const KeyFrame& kf2 = map_.keyFrame(nId);
@@ -402,8 +405,13 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
       // The search (most of this step's time) runs outside the map lock on copies of the two keyframes, taken
       // with the lock held: tracking may insert a keyframe and link observations (covisibility) meanwhile.
       // Only this mapper binds keypoints of kf1 and kf2, so the free keypoints the copies show are still free.
-      const KeyFrame copy1 = kf1, copy2 = kf2;
-      if (!runOutsideMapLock([&] { matches = searchForTriangulation(copy1, copy2, F12, params_, TriangulationSearch::Guided); }))
+      // The previous pairs' new points bound keypoints of kf1: only its keypoint-to-point links change.
+      if (!copy1)
+        copy1 = kf1;
+      else
+        copy1->mapPointIds = kf1.mapPointIds;
+      const KeyFrame copy2 = kf2;
+      if (!runOutsideMapLock([&] { matches = searchForTriangulation(*copy1, copy2, F12, params_, TriangulationSearch::Guided); }))
         return {};  // the map was reset: kfId is gone
     }
     const geometry::Matrix34d P1 = geometry::projectionMatrix(K1, R1, t1), P2 = geometry::projectionMatrix(K2, R2, t2);
