@@ -104,7 +104,7 @@ struct System::Impl {
       if (params.manhattan.baRotationSigmaDeg > 0.0)
         mapper->addBAFactorHooks(
             [this](const map::Map&, const optimize::BAProblem& problem) { return tracker->manhattanRotationPriors(problem); },
-            [](const std::vector<bool>&) {});
+            nullptr);  // a prior has no state to update after BA
     }
     // ---- line segments ([Lines], eq. 2.59): tracking's pose optimization and local BA use them
     if (params.lines.enabled) {
