@@ -174,6 +174,25 @@ std::vector<IndexMatch> matchForInitialization(const std::vector<cv::KeyPoint>& 
   return matches;
 }
 
+int rotationHistogramBin(float angle1, float angle2, int bins) {
+  float rot = angle1 - angle2;
+  if (rot < 0.0f) rot += 360.0f;
+  int bin = static_cast<int>(std::round(rot * (1.0f / 360.0f) * bins));
+  if (bin == bins) bin = 0;
+  return std::clamp(bin, 0, bins - 1);
+}
+
+std::vector<std::size_t> inLargestRotationBins(const std::vector<int>& bins, int numBins) {
+  std::vector<std::vector<int>> histogram(static_cast<std::size_t>(numBins));
+  for (std::size_t i = 0; i < bins.size(); ++i) histogram.at(static_cast<std::size_t>(bins[i])).push_back(static_cast<int>(i));
+  int b1 = -1, b2 = -1, b3 = -1;
+  threeLargestBins(histogram, b1, b2, b3);
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < bins.size(); ++i)
+    if (bins[i] == b1 || bins[i] == b2 || bins[i] == b3) kept.push_back(i);
+  return kept;
+}
+
 std::vector<IndexMatch> matchBruteForce(const cv::Mat& query, const cv::Mat& train, const BruteForceParams& params) {
   const char* ctx = "matchBruteForce";
   params.check();

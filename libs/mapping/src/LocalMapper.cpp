@@ -43,27 +43,11 @@ double sceneMedianDepth(const map::Map& map, const KeyFrame& kf) {
   return z[z.size() / 2];
 }
 
-/// ORB-SLAM's rotation histogram: bin of an angle difference in degrees over 360 / bins.
-int rotationBin(float angle1, float angle2, int bins) {
-  float rot = angle1 - angle2;
-  if (rot < 0.0f) rot += 360.0f;
-  int bin = static_cast<int>(std::round(rot * (1.0f / 360.0f) * bins));
-  if (bin == bins) bin = 0;
-  return std::clamp(bin, 0, bins - 1);
-}
-
-constexpr int kRotationBins = 30;
-
 /// Keeps only the matches whose rotation bin is one of the three most populated (ORB-SLAM).
 template <typename Match>
 std::vector<Match> filterByRotation(const std::vector<Match>& matches, const std::vector<int>& bins) {
-  std::vector<std::vector<int>> histogram(kRotationBins);
-  for (std::size_t i = 0; i < matches.size(); ++i) histogram[bins[i]].push_back(static_cast<int>(i));
-  int b1 = -1, b2 = -1, b3 = -1;
-  features::threeLargestBins(histogram, b1, b2, b3);
   std::vector<Match> kept;
-  for (std::size_t i = 0; i < matches.size(); ++i)
-    if (bins[i] == b1 || bins[i] == b2 || bins[i] == b3) kept.push_back(matches[i]);
+  for (std::size_t i : features::inLargestRotationBins(bins)) kept.push_back(matches[i]);
   return kept;
 }
 
@@ -361,7 +345,7 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
     if (params.nnRatio < 1.0 && static_cast<double>(best) >= params.nnRatio * static_cast<double>(second)) continue;
     taken2[bestJ] = true;
     matches.push_back({i, bestJ});
-    bins.push_back(rotationBin(kf1.keypoints[i].angle, kf2.keypoints[bestJ].angle, kRotationBins));
+    bins.push_back(features::rotationHistogramBin(kf1.keypoints[i].angle, kf2.keypoints[bestJ].angle));
   }
   if (params.checkOrientation) return filterByRotation(matches, bins);
   return matches;

@@ -1,6 +1,7 @@
 #pragma once
 // Binary descriptor matching (thesis eq. 2.18): Hamming distance, ORB-SLAM's two-view initialization search
 // (SearchForInitialization) and a global brute-force ratio matcher for relocalization.
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -68,6 +69,14 @@ std::vector<IndexMatch> matchForInitialization(const std::vector<cv::KeyPoint>& 
 /// Indices of the (up to) three largest bins of `histogram` by count (ties: lower index), -1 where none;
 /// the second/third are dropped (-1) when below 10 % of the largest, as ORB-SLAM's ComputeThreeMaxima.
 void threeLargestBins(const std::vector<std::vector<int>>& histogram, int& first, int& second, int& third);
+
+/// ORB-SLAM's rotation histogram: 30 bins over 360 degrees of keypoint angle differences.
+constexpr int kRotationHistogramBins = 30;
+/// Bin of the angle difference angle1 - angle2 (degrees) among `bins` bins over 360 degrees.
+int rotationHistogramBin(float angle1, float angle2, int bins = kRotationHistogramBins);
+/// Rotation consistency of a match set: the positions (ascending) of the entries of `bins` that fall into one of
+/// the three most populated bins (threeLargestBins' rule). bins[k] must be in [0, numBins).
+std::vector<std::size_t> inLargestRotationBins(const std::vector<int>& bins, int numBins = kRotationHistogramBins);
 
 struct BruteForceParams {
   float ratio = 0.8f;             ///< Lowe ratio best < ratio * second best; >= 1 disables the test
