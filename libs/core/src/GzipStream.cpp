@@ -95,4 +95,20 @@ void GzipInputStream::requireEnd() {
     throw Error(path_.string() + ": unexpected data after the end (at byte " + std::to_string(position_ - 1) + ")");
 }
 
+void throwArchiveReadError(const std::filesystem::path& path, const std::exception& e, const GzipInputStream& stream,
+                           const std::string& contentFailure, const std::string& fileKind) {
+  if (!stream.failure().empty()) throw Error(path.string() + ": " + stream.failure());
+  if (!contentFailure.empty()) throw Error(path.string() + ": " + contentFailure);
+  // Another MRPT object: a class this program knows ("Stored: <class>") or not ("has class '<class>'").
+  const std::string what = e.what();
+  std::string cls;
+  if (const auto at = what.find("Stored: "); at != std::string::npos)
+    cls = what.substr(at + 8, what.find_first_of("\n ", at + 8) - at - 8);
+  else if (const auto at2 = what.find("has class '"); at2 != std::string::npos)
+    cls = what.substr(at2 + 11, what.find('\'', at2 + 11) - at2 - 11);
+  if (!cls.empty()) throw Error(path.string() + ": not a " + fileKind + " (it holds a " + cls + ")");
+  if (const auto* err = dynamic_cast<const Error*>(&e)) throw *err;
+  throw Error(path.string() + ": not a readable " + fileKind + " (truncated or corrupt: " + oneLineMessage(e) + ")");
+}
+
 }  // namespace pslam

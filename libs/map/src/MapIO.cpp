@@ -346,20 +346,7 @@ Map loadMap(const std::filesystem::path& path) {
     arch.ReadObject(&wrapper);
     stream.requireEnd();  // the CRC-32 and length of the gzip trailer are checked here at the latest
   } catch (const std::exception& e) {
-    // The first failure wins: the gzip stream's, then the content's (MRPT replaces exceptions thrown inside an
-    // object with its own end-of-file one), then MRPT's own.
-    if (!stream.failure().empty()) throw Error(path.string() + ": " + stream.failure());
-    if (!wrapper.readFailure.empty()) throw Error(path.string() + ": " + wrapper.readFailure);
-    // Another MRPT object: a class this program knows ("Stored: <class>") or not ("has class '<class>'").
-    const std::string what = e.what();
-    std::string cls;
-    if (const auto at = what.find("Stored: "); at != std::string::npos)
-      cls = what.substr(at + 8, what.find_first_of("\n ", at + 8) - at - 8);
-    else if (const auto at2 = what.find("has class '"); at2 != std::string::npos)
-      cls = what.substr(at2 + 11, what.find('\'', at2 + 11) - at2 - 11);
-    if (!cls.empty()) throw Error(path.string() + ": not a .slammap file (it holds a " + cls + ")");
-    if (dynamic_cast<const Error*>(&e)) throw;
-    throw Error(path.string() + ": not a readable .slammap file (truncated or corrupt: " + oneLineMessage(e) + ")");
+    throwArchiveReadError(path, e, stream, wrapper.readFailure, ".slammap file");
   }
   try {
     wrapper.map.checkInvariants("inconsistent content");

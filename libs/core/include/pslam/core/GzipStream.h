@@ -60,4 +60,13 @@ class GzipInputStream : public mrpt::io::CStream {
 /// counts) never reaches a deserializer. Streams with a fixed buffer; costs one decompression of the file.
 void verifyGzipFile(const std::filesystem::path& path);
 
+/// The one error line of a failed read of a single-object MRPT archive file (maps, vocabularies), from the
+/// exception `e` that reading threw. The first failure wins: the gzip stream's, then `contentFailure` (what the
+/// object's own reader found: MRPT replaces exceptions thrown inside an object with its own end-of-file one), then
+/// another MRPT object in the file ("not a <fileKind> (it holds a <class>)"), then a pslam::Error as it is, else
+/// "not a readable <fileKind> (truncated or corrupt: ...)". Always throws pslam::Error naming `path`.
+[[noreturn]] void throwArchiveReadError(const std::filesystem::path& path, const std::exception& e,
+                                        const GzipInputStream& stream, const std::string& contentFailure,
+                                        const std::string& fileKind);
+
 }  // namespace pslam
