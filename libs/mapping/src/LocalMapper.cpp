@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <map>
 #include <optional>
 #include <set>
 
@@ -293,6 +295,22 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
     gj[k] = free2[order[k]];
   }
 
+  // VocabularyNode: each kf1 keypoint's node, and kf2's free keypoints by node (ascending, as the scan visits them).
+  constexpr places::NodeId kNoNode = std::numeric_limits<places::NodeId>::max();
+  if (mode == TriangulationSearch::VocabularyNode && (kf1.bowFeatures.empty() || kf2.bowFeatures.empty()))
+    mode = TriangulationSearch::Guided;
+  std::vector<places::NodeId> nodeOf1;
+  std::map<places::NodeId, std::vector<std::size_t>> free2ByNode;
+  if (mode == TriangulationSearch::VocabularyNode) {
+    nodeOf1.assign(kf1.numKeypoints(), kNoNode);
+    for (const auto& [node, idx] : kf1.bowFeatures.nodes)
+      for (std::uint32_t i : idx)
+        if (i < nodeOf1.size()) nodeOf1[i] = node;
+    for (const auto& [node, idx] : kf2.bowFeatures.nodes)
+      for (std::uint32_t j : idx)
+        if (j < kf2.numKeypoints() && kf2.mapPointIds[j] == map::kNoMapPoint) free2ByNode[node].push_back(j);
+  }
+
   std::vector<PairMatch> matches;
   std::vector<int> bins;
   for (std::size_t i = 0; i < kf1.numKeypoints(); ++i) {
@@ -333,7 +351,11 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
         second = dist;
       }
     };
-    if (mode == TriangulationSearch::Guided) {
+    if (mode == TriangulationSearch::VocabularyNode) {
+      if (nodeOf1[i] != kNoNode)
+        if (const auto it = free2ByNode.find(nodeOf1[i]); it != free2ByNode.end())
+          for (std::size_t j : it->second) consider(j, kf2.keypoints[j].pt.x, kf2.keypoints[j].pt.y, kEpipolarChi2 * kf2.levelSigma2.at(kf2.keypoints[j].octave));
+    } else if (mode == TriangulationSearch::Guided) {
       grid.forEachCrossedCell(line2, [&](std::size_t begin, std::size_t end) {
         for (std::size_t k = begin; k < end; ++k) consider(gj[k], gx[k], gy[k], gb[k]);
       });
@@ -384,7 +406,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
     const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(K1, R1, t1, K2, R2, t2);
     std::vector<PairMatch> matches;
     if (!outsideMapLock_) {
-      matches = searchForTriangulation(kf1, kf2, F12, params_, TriangulationSearch::Guided);
+      matches = searchForTriangulation(kf1, kf2, F12, params_, triangulationSearch_);
     } else {
       // The search (most of this step's time) runs outside the map lock on copies of the two keyframes, taken
       // with the lock held: tracking may insert a keyframe and link observations (covisibility) meanwhile.
@@ -395,7 +417,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
       else
         copy1->mapPointIds = kf1.mapPointIds;
       const KeyFrame copy2 = kf2;
-      if (!runOutsideMapLock([&] { matches = searchForTriangulation(*copy1, copy2, F12, params_, TriangulationSearch::Guided); }))
+      if (!runOutsideMapLock([&] { matches = searchForTriangulation(*copy1, copy2, F12, params_, triangulationSearch_); }))
         return {};  // the map was reset: kfId is gone
     }
     const geometry::Matrix34d P1 = geometry::projectionMatrix(K1, R1, t1), P2 = geometry::projectionMatrix(K2, R2, t2);

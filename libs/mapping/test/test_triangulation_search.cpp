@@ -2,6 +2,7 @@
 // synthetic keyframe pairs with lateral, forward (epipole inside the image), vertical and rotating motion,
 // keypoints on every pyramid level (band widths up to 7 px), pixel noise, repeated descriptors (ambiguity) and
 // keypoints that already have a map point.
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -104,4 +105,64 @@ TEST(TriangulationSearch, GuidedFindsExactlyTheExhaustiveMatches) {
       }
     }
   }
+}
+
+TEST(TriangulationSearch, VocabularyNodeSearchesOnlyWithinTheKeypointsNode) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ux(-15, 15), uy(-3, 3), uz(3, 60);
+  std::uniform_int_distribution<int> byte(0, 255);
+  std::uniform_real_distribution<float> angle(10.f, 350.f);
+  std::vector<Eigen::Vector3d> points;
+  std::vector<cv::Mat> descriptors;
+  std::vector<float> angles;
+  for (int i = 0; i < 1500; ++i) {
+    angles.push_back(angle(rng));
+    points.emplace_back(ux(rng), uy(rng), uz(rng));
+    cv::Mat d(1, 32, CV_8UC1);
+    for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
+    descriptors.push_back(d);
+  }
+  map::KeyFrame kf1 = keyFrameAt(pose({0, 0, 0}, {0, 0, 0}), points, descriptors, angles, rng);
+  map::KeyFrame kf2 = keyFrameAt(pose({1.0, 0.05, 0.1}, {0, 0.03, 0}), points, descriptors, angles, rng);
+  const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(kf1.camera.K(), kf1.T_cam_world.linear(),
+                                                             kf1.T_cam_world.translation(), kf2.camera.K(),
+                                                             kf2.T_cam_world.linear(), kf2.T_cam_world.translation());
+  LocalMappingParams params;
+  const auto guided = searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::Guided);
+  ASSERT_GT(guided.size(), 300u);
+  // Without a direct index the vocabulary search is the guided one.
+  EXPECT_EQ(searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::VocabularyNode).size(), guided.size());
+  auto allInOneNode = [](map::KeyFrame& kf) {
+    kf.bowFeatures.nodes = {{5, {}}};
+    for (std::uint32_t i = 0; i < kf.numKeypoints(); ++i) kf.bowFeatures.nodes[0].second.push_back(i);
+  };
+  // Every keypoint in one node: the same candidates as the exhaustive search, so the same matches.
+  allInOneNode(kf1);
+  allInOneNode(kf2);
+  const auto oneNode = searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::VocabularyNode);
+  ASSERT_EQ(oneNode.size(), guided.size());
+  for (std::size_t k = 0; k < guided.size(); ++k) {
+    EXPECT_EQ(oneNode[k].i1, guided[k].i1);
+    EXPECT_EQ(oneNode[k].i2, guided[k].i2);
+  }
+  // Nodes by keypoint parity in kf1, and the opposite parity of the guided partner in kf2: no pair shares a node.
+  std::map<std::size_t, std::size_t> partner;
+  for (const auto& m : guided) partner[m.i2] = m.i1;
+  kf1.bowFeatures.nodes = {{1, {}}, {2, {}}};
+  for (std::uint32_t i = 0; i < kf1.numKeypoints(); ++i) kf1.bowFeatures.nodes[i % 2].second.push_back(i);
+  kf2.bowFeatures.nodes = {{1, {}}, {2, {}}};
+  for (std::uint32_t j = 0; j < kf2.numKeypoints(); ++j) {
+    const auto it = partner.find(j);
+    const std::size_t node = it == partner.end() ? 0 : (it->second + 1) % 2;
+    kf2.bowFeatures.nodes[node].second.push_back(j);
+  }
+  const auto split = searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::VocabularyNode);
+  for (const auto& m : split) {
+    const auto it = partner.find(m.i2);
+    if (it != partner.end()) {
+      EXPECT_NE(it->second, m.i1) << "matched across nodes";
+    }
+    EXPECT_EQ(m.i1 % 2, (it == partner.end() ? 0u : (it->second + 1) % 2)) << "a candidate outside the keypoint's node";
+  }
+  EXPECT_LT(split.size(), guided.size() / 4);
 }

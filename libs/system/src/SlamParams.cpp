@@ -1,5 +1,7 @@
 #include "pslam/system/SlamParams.h"
 
+#include <filesystem>
+
 #include <mrpt/config/CConfigFileMemory.h>
 
 namespace pslam::system {
@@ -24,6 +26,10 @@ SlamParams loadSlamParams(const std::string& iniPath, const std::vector<std::str
   SlamParams p;
   params::loadConfigFile(iniPath, params::sectionsOf(p),
                          [&](const mrpt::config::CConfigFileBase& cfg) { p.loadFromConfigFile(cfg); }, overrides);
+  // Files named by the config are relative to its folder (as the model paths of the priors' configs).
+  if (!p.places.vocabulary.empty() && std::filesystem::path(p.places.vocabulary).is_relative())
+    p.places.vocabulary =
+        (std::filesystem::path(iniPath).parent_path() / p.places.vocabulary).lexically_normal().string();
   return p;
 }
 

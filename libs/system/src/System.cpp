@@ -320,6 +320,9 @@ System::System(SlamParams params, SystemOptions options)
   // Unknown solver / initializer names fail here, not at the first frame.
   tracking::requirePoseSolver(params_.system.poseSolver);
   tracking::requireMapInitializer(params_.system.initializer);
+  // The vocabulary is read before the first frame: a bad file fails the run at its start.
+  if (!params_.places.vocabulary.empty())
+    vocabulary_ = std::make_shared<const places::Vocabulary>(places::Vocabulary::load(params_.places.vocabulary));
   threaded_ = options_.threaded.value_or(params_.system.threaded);
   if (options_.camera) {
     options_.camera->check();
@@ -330,6 +333,10 @@ System::System(SlamParams params, SystemOptions options)
 void System::start(const geometry::PinholeCamera& camera) {
   camera_ = camera;
   impl_ = std::make_unique<Impl>(params_, camera, options_.seed, threaded_);
+  if (vocabulary_) {
+    impl_->tracker->setVocabulary(vocabulary_, params_.places);
+    if (params_.places.triangulation) impl_->mapper->setTriangulationSearch(mapping::TriangulationSearch::VocabularyNode);
+  }
   impl_->mappingEnabled = mappingEnabled_;
   impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
 }

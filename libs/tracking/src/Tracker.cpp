@@ -7,6 +7,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/manhattan/ManhattanTracker.h"
 #include "pslam/optimize/RotationPriorFactor.h"
+#include "pslam/places/BowMatching.h"
 
 namespace pslam::tracking {
 
@@ -102,6 +103,8 @@ void Tracker::onMapLoaded() {
   last_ = Frame();
   R_world_mf_.reset();  // found again on the first tracked frame with a Manhattan frame
   keyFrameManhattan_.clear();
+  keyFrameDatabase_.clear();
+  for (const auto& [id, kf] : map_.keyFrames()) computeKeyFrameBow(id);
 }
 
 void Tracker::reset() {
@@ -116,6 +119,37 @@ void Tracker::reset() {
   last_ = Frame();
   R_world_mf_.reset();
   keyFrameManhattan_.clear();
+  keyFrameDatabase_.clear();  // keyframe ids start again at 0
+}
+
+void Tracker::setVocabulary(std::shared_ptr<const places::Vocabulary> vocabulary, const places::PlacesParams& params) {
+  params.check();
+  vocabulary_ = std::move(vocabulary);
+  placesParams_ = params;
+  keyFrameDatabase_.clear();
+  for (const auto& [id, kf] : map_.keyFrames()) computeKeyFrameBow(id);
+}
+
+void Tracker::computeKeyFrameBow(map::KeyFrameId id) {
+  if (!vocabulary_ || !map_.hasKeyFrame(id)) return;
+  map::KeyFrame& kf = map_.mutableKeyFrame(id);
+  if (!kf.bow.empty() || kf.descriptors.empty()) return;
+  vocabulary_->transform(kf.descriptors, kf.bow, &kf.bowFeatures, placesParams_.directIndexLevelsUp);
+}
+
+void Tracker::computeFrameBow(Frame& frame) const {
+  if (!vocabulary_ || !frame.bow.empty() || frame.descriptors.empty()) return;
+  vocabulary_->transform(frame.descriptors, frame.bow, &frame.bowFeatures, placesParams_.directIndexLevelsUp);
+}
+
+void Tracker::syncKeyFrameDatabase() {
+  for (const places::KeyFrameKey id : keyFrameDatabase_.keyFrames())
+    if (!map_.hasKeyFrame(id)) keyFrameDatabase_.erase(id);
+  for (const auto& [id, kf] : map_.keyFrames())
+    if (!keyFrameDatabase_.contains(id)) {
+      computeKeyFrameBow(id);
+      keyFrameDatabase_.add(id, map_.keyFrame(id).bow);
+    }
 }
 
 void Tracker::recordMeasurements(const Frame& frame) {
@@ -409,8 +443,24 @@ bool Tracker::trackReferenceKeyFrame(Frame& frame) {
   measured_.clear();
   if (!map_.hasKeyFrame(referenceKeyFrame_)) return false;
   const map::KeyFrame& kf = map_.keyFrame(referenceKeyFrame_);
-  // Descriptor matching of the keyframe's map points against all frame keypoints (stands in for ORB-SLAM's
-  // bag-of-words SearchByBoW: same TH_LOW and ratio, exhaustive instead of vocabulary-node restricted).
+  if (vocabulary_ && placesParams_.referenceTracking) {
+    // ORB-SLAM's SearchByBoW: the keyframe's points against the frame keypoints of the same vocabulary node.
+    computeKeyFrameBow(referenceKeyFrame_);
+    computeFrameBow(frame);
+    places::NodeMatchParams np;
+    np.ratio = params_.referenceRatio;
+    np.maxDistance = params_.referenceMaxDistance;
+    const auto matches = places::matchByVocabularyNode(
+        kf.bowFeatures, kf.descriptors, kf.keypoints, frame.bowFeatures, frame.descriptors, frame.keypoints, np,
+        [&](std::size_t i) { return measurable(kf.mapPointIds[i]); });
+    for (const auto& m : matches)
+      frame.mapPointIds[static_cast<std::size_t>(m.i2)] = kf.mapPointIds[static_cast<std::size_t>(m.i1)];
+    if (static_cast<int>(matches.size()) < params_.minReferenceMatches && !direct_) return false;
+    frame.T_cam_world = last_.hasPose ? last_.T_cam_world : kf.T_cam_world;
+    return poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+  }
+  // Without a vocabulary: descriptor matching of the keyframe's map points against all frame keypoints (same
+  // TH_LOW and ratio as SearchByBoW, exhaustive instead of vocabulary-node restricted).
   std::vector<int> rows;
   for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
     if (measurable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
@@ -538,34 +588,56 @@ int Tracker::trackLocalMap(Frame& frame, int* localCandidates) {
   return inliers;
 }
 
-bool Tracker::relocalize(Frame& frame) {
-  // Candidate keyframes ranked by exhaustive descriptor matches against their points (ORB-SLAM ranks by
-  // bag-of-words similarity; without a vocabulary the match count is the similarity).
-  struct Cand {
-    map::KeyFrameId kf;
-    std::vector<std::pair<std::size_t, map::MapPointId>> matches;  // frame keypoint -> point
-  };
-  std::vector<Cand> cands;
-  features::BruteForceParams bp;
-  bp.ratio = 0.75f;
-  bp.maxDistance = features::kOrbThHigh;
-  for (const auto& [kfId, kf] : map_.keyFrames()) {
-    std::vector<int> rows;
-    for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
-      if (usable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
-    if (static_cast<int>(rows.size()) < params_.minReferenceMatches) continue;
-    cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
-    for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
-    Cand c{kfId, {}};
-    for (const auto& m : features::matchBruteForce(query, frame.descriptors, bp))
-      c.matches.emplace_back(static_cast<std::size_t>(m.i2), kf.mapPointIds[rows[m.i1]]);
-    if (static_cast<int>(c.matches.size()) >= params_.minReferenceMatches) cands.push_back(std::move(c));
+std::vector<Tracker::RelocCandidate> Tracker::relocalizationCandidates(Frame& frame) {
+  std::vector<RelocCandidate> cands;
+  if (vocabulary_ && placesParams_.relocalization) {
+    // ORB-SLAM: the keyframe database proposes the keyframes (and covisible groups) most similar to the frame;
+    // each is matched by vocabulary node (SearchByBoW: TH_LOW, ratio 0.75, rotation consistency).
+    computeFrameBow(frame);
+    syncKeyFrameDatabase();
+    const auto places = keyFrameDatabase_.relocalizationCandidates(
+        frame.bow, [&](places::KeyFrameKey k) { return map_.bestCovisibleKeyFrames(k, 10); });
+    places::NodeMatchParams np;
+    np.ratio = 0.75f;
+    for (const places::PlaceCandidate& pc : places) {
+      const map::KeyFrame& kf = map_.keyFrame(pc.keyFrame);
+      RelocCandidate c{pc.keyFrame, {}};
+      for (const auto& m : places::matchByVocabularyNode(
+               kf.bowFeatures, kf.descriptors, kf.keypoints, frame.bowFeatures, frame.descriptors, frame.keypoints, np,
+               [&](std::size_t i) { return usable(kf.mapPointIds[i]); }))
+        c.matches.emplace_back(static_cast<std::size_t>(m.i2), kf.mapPointIds[static_cast<std::size_t>(m.i1)]);
+      if (static_cast<int>(c.matches.size()) >= params_.minReferenceMatches) cands.push_back(std::move(c));
+    }
+  } else {
+    // Without a vocabulary: exhaustive descriptor matching against every keyframe's points (the match count
+    // stands in for the BoW similarity).
+    features::BruteForceParams bp;
+    bp.ratio = 0.75f;
+    bp.maxDistance = features::kOrbThHigh;
+    for (const auto& [kfId, kf] : map_.keyFrames()) {
+      std::vector<int> rows;
+      for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i)
+        if (usable(kf.mapPointIds[i])) rows.push_back(static_cast<int>(i));
+      if (static_cast<int>(rows.size()) < params_.minReferenceMatches) continue;
+      cv::Mat query(static_cast<int>(rows.size()), 32, CV_8U);
+      for (std::size_t r = 0; r < rows.size(); ++r) kf.descriptors.row(rows[r]).copyTo(query.row(static_cast<int>(r)));
+      RelocCandidate c{kfId, {}};
+      for (const auto& m : features::matchBruteForce(query, frame.descriptors, bp))
+        c.matches.emplace_back(static_cast<std::size_t>(m.i2), kf.mapPointIds[rows[m.i1]]);
+      if (static_cast<int>(c.matches.size()) >= params_.minReferenceMatches) cands.push_back(std::move(c));
+    }
   }
-  std::stable_sort(cands.begin(), cands.end(),
-                   [](const Cand& a, const Cand& b) { return a.matches.size() > b.matches.size(); });
+  std::stable_sort(cands.begin(), cands.end(), [](const RelocCandidate& a, const RelocCandidate& b) {
+    return a.matches.size() > b.matches.size();
+  });
   if (static_cast<int>(cands.size()) > params_.relocalizationCandidates) cands.resize(params_.relocalizationCandidates);
+  return cands;
+}
 
-  for (const Cand& c : cands) {
+bool Tracker::relocalize(Frame& frame) {
+  // Candidate keyframes with their matches, most matches first; each is tried by PnP.
+  const std::vector<RelocCandidate> cands = relocalizationCandidates(frame);
+  for (const RelocCandidate& c : cands) {
     std::vector<Eigen::Vector3d> pts;
     std::vector<Eigen::Vector2d> pixels;
     for (const auto& [k, p] : c.matches) {
@@ -674,6 +746,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
       rep.inliers = frame.numMatchedInliers();
       rep.keyFrame = true;
       res.newKeyFrames = {init.kf1, init.kf2};
+      for (map::KeyFrameId id : res.newKeyFrames) computeKeyFrameBow(id);
       res.initialReferencePose = std::make_pair(reference.timestamp, reference.T_cam_world);
       // §4.4.1: "we use the MW orientation found in the first image as our global MW frame".
       if (reference.R_cam_mf)
@@ -828,6 +901,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   kin.directReferenceActive = rep.direct.referenceActive;
   if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {
     res.newKeyFrames.push_back(createKeyFrame(frame, manhattanTracked));
+    computeKeyFrameBow(res.newKeyFrames.back());
     rep.keyFrame = true;
   } else if (mapUpdates_ && !kin.localMappingIdle) {
     kin.localMappingIdle = true;

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "pslam/map/Types.h"
+#include "pslam/places/BowTypes.h"
 
 namespace pslam::map {
 
@@ -28,6 +29,12 @@ struct KeyFrame {
   std::vector<double> levelSigma2;      ///< per pyramid level: (s^level)^2, variance of a keypoint position
   /// Optional per-keypoint P(static, dynamic, invalid) (Table 3.1 classes); empty when no semantics.
   std::vector<std::array<float, 3>> semanticProbabilities;
+
+  /// The descriptors in the vocabulary of the run (libs/places), when it has one: the BoW vector
+  /// (relocalization, place recognition) and the direct index (vocabulary-guided matching). Derived data: not
+  /// saved with the map (recomputed from the descriptors after loading), not compared by Map::operator==.
+  places::BowVector bow;
+  places::FeatureVector bowFeatures;
 
   // ---- bookkeeping maintained by Map (do not edit directly) ----
   std::vector<MapPointId> mapPointIds;  ///< per keypoint, kNoMapPoint when unmatched

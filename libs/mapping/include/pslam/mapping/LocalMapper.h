@@ -130,7 +130,11 @@ struct PairMatch {
 /// How searchForTriangulation finds the candidates of a keypoint: every free keypoint of the second keyframe
 /// (ORB-SLAM's search without a vocabulary), or only those in grid cells the epipolar band crosses. Both give
 /// the same matches (the guided candidates are a superset of those within the band, visited in the same order).
-enum class TriangulationSearch { Exhaustive, Guided };
+/// VocabularyNode: only the free keypoints of the second keyframe in the same vocabulary node (the keyframes'
+/// direct index, KeyFrame::bowFeatures; ORB-SLAM's SearchForTriangulation): fewer candidates, fewer matches
+/// (a keypoint without a node, or whose match fell into another node, gets none). Falls back to Guided when either
+/// keyframe has no direct index.
+enum class TriangulationSearch { Exhaustive, Guided, VocabularyNode };
 
 /// ORB-SLAM's SearchForTriangulation: keypoints of kf1 and kf2 without a map point, on the epipolar line of F12
 /// (x1^T F12 x2 = 0; chi2 3.84 with kf2's level sigma^2), far enough from the epipole, best descriptor distance
@@ -193,6 +197,9 @@ class LocalMapper {
   /// Called (map lock held) once the keyframe's new points are in the map: after triangulation and fusion, before
   /// local BA. Threaded mode: tracking may go on from there.
   void setNewPointsReady(std::function<void(map::KeyFrameId)> callback) { newPointsReady_ = std::move(callback); }
+  /// How triangulation finds candidate keypoint pairs (default Guided; VocabularyNode when the keyframes carry the
+  /// vocabulary's direct index, [Places] triangulation).
+  void setTriangulationSearch(TriangulationSearch mode) { triangulationSearch_ = mode; }
 
   /// Is the point used for tracking / BA (pointUsePolicy()->mayUse)?
   bool isActive(map::MapPointId point) const;
@@ -229,6 +236,7 @@ class LocalMapper {
   };
   std::vector<BAHooks> baHooks_;
   OutsideMapLock outsideMapLock_;
+  TriangulationSearch triangulationSearch_ = TriangulationSearch::Guided;
   std::function<void(map::KeyFrameId)> newPointsReady_;
   bool mapChanged_ = false;  ///< the map was reset while a computation ran outside the lock
   std::atomic<bool> stopBundleAdjustment_{false};

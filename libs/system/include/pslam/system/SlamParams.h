@@ -6,6 +6,7 @@
 //   [LocalMapping] mapping::LocalMappingParams   [PointModel] landmarks::PointModelParams   [System] SystemParams
 //   [DirectFeatures] direct::DirectFeaturesParams   [Lines] lines::LinesParams
 //   [Manhattan] tracking::ManhattanPathParams   [ManhattanTracker] manhattan::ManhattanParams
+//   [Places] places::PlacesParams
 // An unknown section or key is an error naming the closest valid one.
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "pslam/lines/LineFrontEnd.h"
 #include "pslam/mapping/LocalMapper.h"
 #include "pslam/optimize/Params.h"
+#include "pslam/places/PlacesParams.h"
 #include "pslam/tracking/MonocularInitializer.h"
 #include "pslam/tracking/Tracker.h"
 
@@ -63,6 +65,7 @@ struct SlamParams {
   tracking::ManhattanPathParams manhattan;       ///< off by default (ORB-SLAM*)
   manhattan::ManhattanParams manhattanTracker;   ///< the mean shift of the Manhattan path (Table 4.1)
   lines::LinesParams lines;                     ///< [Lines], off by default
+  places::PlacesParams places;                  ///< [Places]: the vocabulary; none by default
 
   template <class V>
   void visitSections(V& v) {
@@ -78,6 +81,7 @@ struct SlamParams {
     v.section("Manhattan", manhattan);
     v.section("ManhattanTracker", manhattanTracker);
     v.section("Lines", lines);
+    v.section("Places", places);
   }
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);

@@ -125,6 +125,7 @@ class System {
   bool threaded_ = false;
   bool mappingEnabled_ = true;
   std::optional<geometry::PinholeCamera> camera_;
+  std::shared_ptr<const places::Vocabulary> vocabulary_;  ///< [Places] vocabulary, loaded by the constructor
   std::unique_ptr<Impl> impl_;
 };
 

@@ -15,6 +15,7 @@
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/geometry/PinholeCamera.h"
 #include "pslam/map/Map.h"
+#include "pslam/places/BowTypes.h"
 
 namespace pslam::tracking {
 
@@ -29,6 +30,9 @@ struct Frame {
   std::vector<double> scaleFactors;      ///< s^level
   std::vector<double> levelSigma2;       ///< s^(2 level)
   std::vector<std::array<float, 3>> semanticProbabilities;  ///< per keypoint, empty without SEMANTIC
+  /// BoW vector and direct index in the run's vocabulary; computed on demand (relocalization, reference tracking).
+  places::BowVector bow;
+  places::FeatureVector bowFeatures;
   // Other channels of the rawlog frame (DESIGN.md §3), registered to the raw image; empty when absent.
   cv::Mat grey;             ///< CV_8UC1 image the keypoints were extracted from (direct features, §3.3)
   cv::Mat semantic;         ///< SEMANTIC, CV_8UC3 P(static, dynamic, invalid) x 255 (direct points' class evidence)

@@ -18,6 +18,9 @@
 #include "pslam/map/Map.h"
 #include "pslam/map/PointUsePolicy.h"
 #include "pslam/optimize/BundleAdjustment.h"
+#include "pslam/places/KeyFrameDatabase.h"
+#include "pslam/places/PlacesParams.h"
+#include "pslam/places/Vocabulary.h"
 #include "pslam/tracking/DirectPointSource.h"
 #include "pslam/tracking/Frame.h"
 #include "pslam/tracking/KeyFrameDecision.h"
@@ -212,6 +215,12 @@ class Tracker {
   std::vector<std::shared_ptr<optimize::BAFactor>> manhattanRotationPriors(const optimize::BAProblem& problem) const;
   /// Line segments join pose optimization through `source` (eq. 2.59, §2.4.4); null (default) = no lines.
   void setLineSource(std::shared_ptr<LineSource> source) { lines_ = std::move(source); }
+  /// Bag-of-words place recognition (libs/places, doc/places.md): every new keyframe gets its BoW vector and
+  /// direct index; relocalization takes its candidates from the keyframe database and matches them by vocabulary
+  /// node (params.relocalization), reference-keyframe tracking matches by node (params.referenceTracking). The
+  /// keyframes already in the map get theirs now. Null: no vocabulary (exhaustive matching).
+  void setVocabulary(std::shared_ptr<const places::Vocabulary> vocabulary, const places::PlacesParams& params);
+  const std::shared_ptr<const places::Vocabulary>& vocabulary() const { return vocabulary_; }
   bool mapUpdatesEnabled() const { return mapUpdates_; }
   /// The map was replaced by a loaded one: tracking is initialized and lost, the next frame relocalizes.
   void onMapLoaded();
@@ -269,6 +278,19 @@ class Tracker {
   Eigen::Isometry3d predictedPose() const { return haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world; }
   /// The pose solver of this frame: the translation-only one when the frame has a rotation prior.
   const PoseSolver& solverFor(const Frame& frame) const;
+  /// BoW vector and direct index of keyframe `id` in the vocabulary, when it has none yet.
+  void computeKeyFrameBow(map::KeyFrameId id);
+  /// Same for a frame (once per frame).
+  void computeFrameBow(Frame& frame) const;
+  /// The keyframe database holds exactly the map's keyframes (new ones added, culled ones erased).
+  void syncKeyFrameDatabase();
+  /// Relocalization candidates with their descriptor matches (frame keypoint -> point): by the keyframe database
+  /// and node-guided matching with a vocabulary, else by exhaustive matching against every keyframe.
+  struct RelocCandidate {
+    map::KeyFrameId kf;
+    std::vector<std::pair<std::size_t, map::MapPointId>> matches;
+  };
+  std::vector<RelocCandidate> relocalizationCandidates(Frame& frame);
   /// Every match of `frame` that entered pose optimization (keypoint per point, the last one wins), so that
   /// outliers of the pose are measurements of their points too.
   void recordMeasurements(const Frame& frame);
@@ -296,6 +318,9 @@ class Tracker {
   StageTimings* timings_ = nullptr;  ///< of the current track() call
   std::map<map::MapPointId, std::size_t> measured_;  ///< of the current track() call (recordMeasurements)
   std::shared_ptr<DirectPointSource> direct_;
+  std::shared_ptr<const places::Vocabulary> vocabulary_;
+  places::PlacesParams placesParams_;
+  places::KeyFrameDatabase keyFrameDatabase_;
   bool manhattan_ = false;
   ManhattanPathParams manhattanParams_;
   std::unique_ptr<PoseSolver> manhattanSolver_;
