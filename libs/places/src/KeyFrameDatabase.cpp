@@ -54,13 +54,27 @@ std::vector<KeyFrameKey> KeyFrameDatabase::keyFrames() const {
 std::vector<PlaceCandidate> KeyFrameDatabase::relocalizationCandidates(
     const BowVector& query, const std::function<std::vector<KeyFrameKey>(KeyFrameKey)>& covisible,
     const RelocalizationQueryParams& params) const {
+  return this->query(query, covisible, {}, 0.0, params);
+}
+
+std::vector<PlaceCandidate> KeyFrameDatabase::loopCandidates(
+    const BowVector& query, const std::function<std::vector<KeyFrameKey>(KeyFrameKey)>& covisible,
+    const std::set<KeyFrameKey>& excluded, double minScore, const RelocalizationQueryParams& params) const {
+  return this->query(query, covisible, excluded, minScore, params);
+}
+
+std::vector<PlaceCandidate> KeyFrameDatabase::query(const BowVector& query,
+                                                    const std::function<std::vector<KeyFrameKey>(KeyFrameKey)>& covisible,
+                                                    const std::set<KeyFrameKey>& excluded, double minScore,
+                                                    const RelocalizationQueryParams& params) const {
   params.check();
   // Keyframes sharing words with the query, and how many.
   std::map<KeyFrameKey, int> common;
   for (const auto& [w, x] : query.words) {
     const auto inv = inverted_.find(w);
     if (inv == inverted_.end()) continue;
-    for (KeyFrameKey kf : inv->second) ++common[kf];
+    for (KeyFrameKey kf : inv->second)
+      if (!excluded.count(kf)) ++common[kf];
   }
   if (common.empty()) return {};
   int maxCommon = 0;
@@ -79,6 +93,7 @@ std::vector<PlaceCandidate> KeyFrameDatabase::relocalizationCandidates(
   std::vector<PlaceCandidate> groups;
   double bestAcc = 0.0;
   for (const auto& [kf, c] : scored) {
+    if (c.score < minScore) continue;
     PlaceCandidate best = c;
     double acc = c.score;
     if (covisible) {

@@ -73,3 +73,20 @@ TEST(KeyFrameDatabase, ErasedKeyFramesAreNeverCandidates) {
   f.db.clear();
   EXPECT_TRUE(f.db.relocalizationCandidates(f.query(2, 5), {}).empty());
 }
+
+TEST(KeyFrameDatabase, LoopCandidatesLeaveOutTheExcludedAndThoseBelowTheMinimumScore) {
+  Fixture f;
+  const BowVector q = f.query(4, 31);  // place 4: keyframes 8 and 9
+  const auto all = f.db.loopCandidates(q, {}, {}, 0.0);
+  ASSERT_FALSE(all.empty());
+  EXPECT_EQ(all.front().keyFrame / 2, 4u);
+  // Excluding the place's two views: they never come back.
+  for (const auto& c : f.db.loopCandidates(q, {}, {8, 9}, 0.0)) {
+    EXPECT_NE(c.keyFrame, 8u);
+    EXPECT_NE(c.keyFrame, 9u);
+  }
+  // A minimum score above every score: nothing; at the best score: only keyframes reaching it.
+  const double best = std::max(Vocabulary::score(q, f.db.bow(8)), Vocabulary::score(q, f.db.bow(9)));
+  EXPECT_TRUE(f.db.loopCandidates(q, {}, {}, best + 1e-6).empty());
+  for (const auto& c : f.db.loopCandidates(q, {}, {}, best)) EXPECT_GE(c.score, best);
+}

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <set>
 #include <vector>
 
 #include "pslam/places/BowTypes.h"
@@ -48,7 +49,19 @@ class KeyFrameDatabase {
       const BowVector& query, const std::function<std::vector<KeyFrameKey>(KeyFrameKey)>& covisible,
       const RelocalizationQueryParams& params = {}) const;
 
+  /// ORB-SLAM's DetectLoopCandidates: the same query for a keyframe, without the keyframes in `excluded` (the
+  /// keyframe itself and its covisible neighbours) and keeping only keyframes scoring at least `minScore` (the
+  /// lowest score of the keyframe against its neighbours); neighbours below it still add to a group's score.
+  std::vector<PlaceCandidate> loopCandidates(const BowVector& query,
+                                             const std::function<std::vector<KeyFrameKey>(KeyFrameKey)>& covisible,
+                                             const std::set<KeyFrameKey>& excluded, double minScore,
+                                             const RelocalizationQueryParams& params = {}) const;
+
  private:
+  std::vector<PlaceCandidate> query(const BowVector& query,
+                                    const std::function<std::vector<KeyFrameKey>(KeyFrameKey)>& covisible,
+                                    const std::set<KeyFrameKey>& excluded, double minScore,
+                                    const RelocalizationQueryParams& params) const;
   std::map<KeyFrameKey, BowVector> bows_;
   std::map<WordId, std::vector<KeyFrameKey>> inverted_;  ///< keyframes per word, ascending
 };
