@@ -1,13 +1,18 @@
 // End-to-end tests of place recognition (doc/places.md): a vocabulary trained on a rendered room, then SLAM runs
 // through the System façade that use it: a blank frame loses tracking and the vocabulary's relocalization finds
-// the camera again within three frames; a bad vocabulary file fails the run before its first frame.
+// the camera again within three frames; a full loop through the room is closed (the drift where the loop meets
+// its start and the ATE drop against the same run without loop closing); a bad vocabulary file fails the run
+// before its first frame.
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 
 #include <gtest/gtest.h>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam/eval/Metrics.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/places/Vocabulary.h"
 #include "pslam/synth/SynthApp.h"
@@ -79,6 +84,52 @@ system::SlamParams paramsWith(const std::vector<std::string>& overrides) {
   return system::loadSlamParams(kConfig.string(), overrides);
 }
 
+/// One loop through the room and 40 frames more (the room's loop takes 480 frames), at 320 x 240 to stay quick.
+const fs::path& roomLoop() {
+  static const fs::path rawlog = [] {
+    synth::SynthOptions o;
+    o.scenario = "room";
+    o.frames = 520;
+    o.width = 320;
+    o.height = 240;
+    o.seed = 3;
+    o.noiseSigma = 1.0;
+    o.name = "room_loop";
+    o.outDir = tempRoot() / "loop";
+    o.progress = false;
+    return synth::SynthApp(o).run().rawlog;
+  }();
+  return rawlog;
+}
+
+struct LoopRun {
+  Trajectory trajectory;
+  nlohmann::json summary, loops;
+};
+
+LoopRun runLoop(bool loopClosing) {
+  system::System sys(paramsWith({"Places.vocabulary=" + vocabularyFile().string(),
+                                 std::string("LoopClosing.enabled=") + (loopClosing ? "true" : "false")}),
+                     {1, false, std::nullopt});
+  datasets::RawlogReader reader(roomLoop());
+  for (datasets::Frame f; reader.next(f);) sys.track(f);
+  return {sys.trajectory(), sys.summary(), sys.loops()};
+}
+
+/// The estimate aligned (Sim(3)) to the ground truth, both restricted to the common timestamps.
+std::pair<Trajectory, Trajectory> aligned(const Trajectory& est) {
+  const Trajectory gt = readTumTrajectory(roomLoop().parent_path() / "room_loop_groundtruth.txt");
+  Trajectory g, e;
+  for (const auto& p : est)
+    for (const auto& q : gt)
+      if (std::abs(q.timestamp - p.timestamp) < 1e-4) {
+        g.push_back(q);
+        e.push_back(p);
+        break;
+      }
+  return {g, eval::applyAlignment(e, eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3))};
+}
+
 }  // namespace
 
 TEST(PlacesE2E, ABlankFrameIsFollowedByARelocalizationWithinThreeFrames) {
@@ -140,4 +191,34 @@ TEST(PlacesE2E, ARelativeVocabularyPathIsRelativeToTheConfigFile) {
   const system::SlamParams p = system::loadSlamParams((dir / "slam.ini").string(), {});
   EXPECT_EQ(fs::path(p.places.vocabulary), (dir / "v.pvoc").lexically_normal());
   EXPECT_NO_THROW(system::System sys(p));
+}
+
+TEST(PlacesE2E, AFullLoopThroughTheRoomIsClosedAndItsDriftRemoved) {
+  const LoopRun open = runLoop(false), closed = runLoop(true);
+  EXPECT_EQ(open.summary.value("loops_closed", -1), 0);
+  ASSERT_GE(closed.summary.value("loops_closed", 0), 1) << closed.loops.dump();
+  // The loop found its start: the matched keyframe is one of the first ones.
+  for (const auto& l : closed.loops)
+    if (l.value("closed", false)) {
+      EXPECT_LT(l.value("matched_keyframe", 999), 10) << l.dump();
+    }
+  const auto [gOpen, eOpen] = aligned(open.trajectory);
+  const auto [gClosed, eClosed] = aligned(closed.trajectory);
+  const double ateOpen = eval::computeAte(gOpen, eOpen).stats.rmse;
+  const double ateClosed = eval::computeAte(gClosed, eClosed).stats.rmse;
+  // Drift where the loop meets its start: the relative pose between frames a loop apart (480 frames).
+  eval::RpeOptions loop;
+  loop.delta = 470;
+  loop.allPairs = true;
+  const double driftOpen = eval::computeRpe(gOpen, eOpen, loop).translation.mean;
+  const double driftClosed = eval::computeRpe(gClosed, eClosed, loop).translation.mean;
+  std::cout << "room loop: ATE " << ateOpen << " -> " << ateClosed << " m, drift over the loop " << driftOpen << " -> "
+            << driftClosed << " m\n";
+  EXPECT_LT(ateClosed, 0.6 * ateOpen);
+  EXPECT_LT(driftClosed, 0.2 * driftOpen);
+}
+
+TEST(PlacesE2E, LoopClosingWithoutAVocabularyIsRefused) {
+  const std::string e = test_support::errorOf([&] { system::System sys(paramsWith({"LoopClosing.enabled=true"})); });
+  EXPECT_NE(e.find("needs a vocabulary"), std::string::npos) << e;
 }

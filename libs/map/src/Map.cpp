@@ -111,6 +111,19 @@ std::optional<Eigen::Isometry3d> Map::keyFramePoseIncludingErased(KeyFrameId id)
   return std::nullopt;
 }
 
+void Map::rescaleErasedKeyFrameLinks(const std::map<KeyFrameId, double>& scales) {
+  for (auto& [id, record] : erased_) {
+    KeyFrameId current = record.parent;
+    for (std::size_t steps = 0; steps <= erased_.size() && !keyframes_.count(current); ++steps) {
+      const auto e = erased_.find(current);
+      if (e == erased_.end()) break;
+      current = e->second.parent;
+    }
+    const auto s = scales.find(current);
+    if (keyframes_.count(current) && s != scales.end() && s->second > 0.0) record.T_cam_parent.translation() /= s->second;
+  }
+}
+
 void Map::setParent(KeyFrameId child, KeyFrameId parent) {
   KeyFrame& c = kfRef(child);
   if (c.parent != kNoKeyFrame && hasKeyFrame(c.parent)) kfRef(c.parent).children.erase(child);

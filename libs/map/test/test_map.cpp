@@ -132,6 +132,34 @@ TEST(Map, ErasedKeyFramePoseFollowsItsParentChain) {
   EXPECT_NEAR((map.keyFramePoseIncludingErased(b)->matrix() - (Tb * G).matrix()).norm(), 0.0, 1e-9);
 }
 
+TEST(Map, ErasedKeyFrameLinksFollowASimilarityCorrection) {
+  // A scale correction of the whole map: the erased keyframes, their links rescaled, sit where it puts them.
+  SyntheticScene scene;
+  Map map = buildSyntheticMap(6, 300, scene);
+  const KeyFrameId a = scene.keyframeIds[2], b = scene.keyframeIds[3];
+  const Eigen::Isometry3d Ta = map.keyFrame(a).T_cam_world, Tb = map.keyFrame(b).T_cam_world;
+  map.eraseKeyFrame(a);
+  map.eraseKeyFrame(b);
+  // World points move by x' = s x (a pure scale of the world): T_cw' = [R | s t], i.e. camera-frame lengths grow
+  // by s, the scale of the correction is 1 / s.
+  const double s = 1.7;
+  std::map<KeyFrameId, double> scales;
+  for (const auto& [id, kf] : map.keyFrames()) scales[id] = 1.0 / s;
+  std::vector<KeyFrameId> living;
+  for (const auto& [id, kf] : map.keyFrames()) living.push_back(id);
+  for (KeyFrameId id : living) {
+    Eigen::Isometry3d T = map.keyFrame(id).T_cam_world;
+    T.translation() *= s;
+    map.setKeyFramePose(id, T);
+  }
+  map.rescaleErasedKeyFrameLinks(scales);
+  Eigen::Isometry3d Ta2 = Ta, Tb2 = Tb;
+  Ta2.translation() *= s;
+  Tb2.translation() *= s;
+  EXPECT_NEAR((map.keyFramePoseIncludingErased(a)->matrix() - Ta2.matrix()).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((map.keyFramePoseIncludingErased(b)->matrix() - Tb2.matrix()).norm(), 0.0, 1e-9);
+}
+
 TEST(Map, ReanchorPointAtInfinityKeepsDirection) {
   SyntheticScene scene;
   Map map = buildSyntheticMap(3, 50, scene);

@@ -15,6 +15,7 @@
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/manhattan/ManhattanTracker.h"
+#include "pslam/loopclosing/LoopCloser.h"
 #include "pslam/mapping/LocalMapper.h"
 #include "pslam/priors/NormalMap.h"
 #include "pslam/tracking/MapInitializer.h"
@@ -52,7 +53,7 @@ void relativeToReference(const ImplT& s, const tracking::Tracker::Result& res, m
 }
 
 struct Counters {
-  std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, resets = 0;
+  std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, resets = 0, loopsClosed = 0;
   std::size_t manhattanFrames = 0, manhattanTracked = 0, fallbackTracked = 0;
   long long initializedAtFrame = -1;
 };
@@ -225,6 +226,29 @@ struct System::Impl {
         mappingLog.back()["lines_culled"] = l.culled;
         mappingLog.back()["lines"] = lineFrontEnd->numLines();
       }
+      // ---- loop closing: the keyframe is queried for a place seen long before, after its local mapping
+      if (loopCloser && map.hasKeyFrame(kf)) {
+        const map::KeyFrameId ref = tracker->referenceKeyFrame();
+        const std::optional<Eigen::Isometry3d> refBefore =
+            map.hasKeyFrame(ref) ? std::optional<Eigen::Isometry3d>(map.keyFrame(ref).T_cam_world) : std::nullopt;
+        const loopclosing::LoopReport lr = loopCloser->processKeyFrame(kf);
+        mappingTimings.add("loop_closing", lr.ms);
+        if (lr.candidates > 0) {
+          nlohmann::json j = lr.toJson();
+          j["generation"] = generation;
+          loops.push_back(std::move(j));
+        }
+        if (lr.closed) {
+          ++counters.loopsClosed;
+          // Frames are kept relative to their reference keyframe: their offsets follow its change of scale.
+          for (TrackedPose& p : poses) {
+            const auto sc = lr.keyFrameScales.find(p.reference);
+            if (p.generation == generation && sc != lr.keyFrameScales.end()) p.T_cam_ref.translation() /= sc->second;
+          }
+          const auto sc = lr.keyFrameScales.find(ref);
+          if (refBefore) tracker->onKeyFramesMoved(ref, *refBefore, sc != lr.keyFrameScales.end() ? sc->second : 1.0);
+        }
+      }
       // Every step of a keyframe's local mapping (issue: mapping cost per keyframe, doc/performance.md).
       mappingTimings.add("mapping_insert", r.processMs);  // keyframe insertion, model updates of its points
       mappingTimings.add("culling_points", r.cullPointsMs);
@@ -275,6 +299,7 @@ struct System::Impl {
   void newGeneration() {
     ++generation;
     poses.clear();
+    if (loopCloser) loopCloser->reset();
   }
 
   SlamParams params;
@@ -287,6 +312,8 @@ struct System::Impl {
   std::shared_ptr<direct::DirectFrontEnd> directFrontEnd;  ///< null unless [DirectFeatures] enabled
   std::unique_ptr<manhattan::ManhattanTracker> manhattanTracker;  ///< null unless [Manhattan] enabled
   std::shared_ptr<lines::LineFrontEnd> lineFrontEnd;       ///< null unless [Lines] enabled
+  std::unique_ptr<loopclosing::LoopCloser> loopCloser;     ///< null unless [LoopClosing] enabled
+  nlohmann::json loops = nlohmann::json::array();          ///< loop-closing reports with candidates
   StageTimings trackingTimings, mappingTimings;
   nlohmann::json mappingLog = nlohmann::json::array();
   nlohmann::json frames = nlohmann::json::array();
@@ -320,6 +347,8 @@ System::System(SlamParams params, SystemOptions options)
   // Unknown solver / initializer names fail here, not at the first frame.
   tracking::requirePoseSolver(params_.system.poseSolver);
   tracking::requireMapInitializer(params_.system.initializer);
+  if (params_.loopClosing.enabled && params_.places.vocabulary.empty())
+    throw Error("[LoopClosing] enabled = true needs a vocabulary ([Places] vocabulary)");
   // The vocabulary is read before the first frame: a bad file fails the run at its start.
   if (!params_.places.vocabulary.empty())
     vocabulary_ = std::make_shared<const places::Vocabulary>(places::Vocabulary::load(params_.places.vocabulary));
@@ -336,6 +365,9 @@ void System::start(const geometry::PinholeCamera& camera) {
   if (vocabulary_) {
     impl_->tracker->setVocabulary(vocabulary_, params_.places);
     if (params_.places.triangulation) impl_->mapper->setTriangulationSearch(mapping::TriangulationSearch::VocabularyNode);
+    if (params_.loopClosing.enabled)
+      impl_->loopCloser = std::make_unique<loopclosing::LoopCloser>(impl_->map, params_.loopClosing,
+                                                                    params_.bundleAdjustment, options_.seed);
   }
   impl_->mappingEnabled = mappingEnabled_;
   impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
@@ -623,6 +655,12 @@ nlohmann::json System::mappingLog() const {
   return impl_->mappingLog;
 }
 
+nlohmann::json System::loops() const {
+  if (!impl_) return nlohmann::json::array();
+  std::lock_guard<std::mutex> mk(impl_->mapMutex);
+  return impl_->loops;
+}
+
 nlohmann::json System::summary() const {
   Counters c;
   std::size_t keyFrames = 0, mapPoints = 0;
@@ -645,6 +683,7 @@ nlohmann::json System::summary() const {
           {"keyframes", keyFrames},
           {"map_points", mapPoints},
           {"resets", c.resets},
+          {"loops_closed", c.loopsClosed},
           {"direct_points", direct["direct_points"]},
           {"direct_active", direct["direct_active"]},
           {"manhattan_frames", c.manhattanFrames},
@@ -669,6 +708,7 @@ nlohmann::json System::report() const {
     r["point_policy"] = impl_->mapper->pointUsePolicy()->name();
     r["timings"] = timings().summary();
     r["mapping"] = mappingLog();
+    r["loops"] = loops();
     std::lock_guard<std::mutex> mk(impl_->mapMutex);
     r["frames"] = impl_->frames;
   } else {

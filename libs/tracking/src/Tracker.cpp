@@ -130,6 +130,14 @@ void Tracker::setVocabulary(std::shared_ptr<const places::Vocabulary> vocabulary
   for (const auto& [id, kf] : map_.keyFrames()) computeKeyFrameBow(id);
 }
 
+void Tracker::onKeyFramesMoved(map::KeyFrameId ref, const Eigen::Isometry3d& T_ref_world_before, double scale) {
+  if (!last_.hasPose || !map_.hasKeyFrame(ref) || !(scale > 0.0)) return;
+  Eigen::Isometry3d T_last_ref = last_.T_cam_world * T_ref_world_before.inverse();
+  T_last_ref.translation() /= scale;
+  last_.T_cam_world = T_last_ref * map_.keyFrame(ref).T_cam_world;
+  velocity_.translation() /= scale;
+}
+
 void Tracker::computeKeyFrameBow(map::KeyFrameId id) {
   if (!vocabulary_ || !map_.hasKeyFrame(id)) return;
   map::KeyFrame& kf = map_.mutableKeyFrame(id);

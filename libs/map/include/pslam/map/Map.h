@@ -57,6 +57,10 @@ class Map {
   /// erased without a parent (the last keyframe). The erasure records are run-time history: not serialized,
   /// not compared by operator==.
   std::optional<Eigen::Isometry3d> keyFramePoseIncludingErased(KeyFrameId id) const;
+  /// A Sim(3) correction changed the scale of the keyframes (loop closing): the recorded offset of every erased
+  /// keyframe from its parent is divided by `scales[k]` of the living keyframe k its chain of parents ends in
+  /// (camera-frame lengths of k before the correction = scales[k] x those after). Keyframes not in `scales` keep 1.
+  void rescaleErasedKeyFrameLinks(const std::map<KeyFrameId, double>& scales);
 
   // ---- map points ----
   /// Creates a point at `p_world` anchored in keypoint `keypoint` of `anchor` (which then observes it).

@@ -6,7 +6,7 @@
 //   [LocalMapping] mapping::LocalMappingParams   [PointModel] landmarks::PointModelParams   [System] SystemParams
 //   [DirectFeatures] direct::DirectFeaturesParams   [Lines] lines::LinesParams
 //   [Manhattan] tracking::ManhattanPathParams   [ManhattanTracker] manhattan::ManhattanParams
-//   [Places] places::PlacesParams
+//   [Places] places::PlacesParams   [LoopClosing] loopclosing::LoopClosingParams
 // An unknown section or key is an error naming the closest valid one.
 #include <string>
 #include <vector>
@@ -17,6 +17,7 @@
 #include "pslam/direct/DirectFrontEnd.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/landmarks/PointModel.h"
+#include "pslam/loopclosing/LoopCloser.h"
 #include "pslam/manhattan/ManhattanTracker.h"
 #include "pslam/lines/LineFrontEnd.h"
 #include "pslam/mapping/LocalMapper.h"
@@ -66,6 +67,7 @@ struct SlamParams {
   manhattan::ManhattanParams manhattanTracker;   ///< the mean shift of the Manhattan path (Table 4.1)
   lines::LinesParams lines;                     ///< [Lines], off by default
   places::PlacesParams places;                  ///< [Places]: the vocabulary; none by default
+  loopclosing::LoopClosingParams loopClosing;   ///< [LoopClosing], off by default
 
   template <class V>
   void visitSections(V& v) {
@@ -82,6 +84,7 @@ struct SlamParams {
     v.section("ManhattanTracker", manhattanTracker);
     v.section("Lines", lines);
     v.section("Places", places);
+    v.section("LoopClosing", loopClosing);
   }
 
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg);

@@ -109,6 +109,10 @@ class System {
   StageTimings timings() const;
   /// One entry per mapped keyframe: {generation, keyframe, new_points, culled_points, culled_keyframes, ...}.
   nlohmann::json mappingLog() const;
+  /// Loop closing ([LoopClosing] enabled): one entry per keyframe that had loop candidates: candidates, the
+  /// consistent ones, each verification's matches / Sim(3) inliers / loop matches, and for a closed loop the
+  /// matched keyframe, scale, correction and fused points.
+  nlohmann::json loops() const;
   /// Counters of the run so far (frames, tracked, lost, relocalizations, initialized_at_frame, keyframes,
   /// map points, resets).
   nlohmann::json summary() const;

@@ -221,6 +221,12 @@ class Tracker {
   /// keyframes already in the map get theirs now. Null: no vocabulary (exhaustive matching).
   void setVocabulary(std::shared_ptr<const places::Vocabulary> vocabulary, const places::PlacesParams& params);
   const std::shared_ptr<const places::Vocabulary>& vocabulary() const { return vocabulary_; }
+  /// The keyframe tracking last referred to (kNoKeyFrame before the first map).
+  map::KeyFrameId referenceKeyFrame() const { return referenceKeyFrame_; }
+  /// The keyframes moved (a loop correction): the last frame's pose follows keyframe `ref`, whose pose was
+  /// `T_ref_world_before` and whose camera-frame lengths shrank by `scale` (Sim(3) correction), so that the motion
+  /// model predicts the next frame in the corrected map.
+  void onKeyFramesMoved(map::KeyFrameId ref, const Eigen::Isometry3d& T_ref_world_before, double scale);
   bool mapUpdatesEnabled() const { return mapUpdates_; }
   /// The map was replaced by a loaded one: tracking is initialized and lost, the next frame relocalizes.
   void onMapLoaded();

@@ -1,0 +1,123 @@
+#pragma once
+// Loop closing (ORB-SLAM's LoopClosing, thesis §2.4.1): after local mapping, each keyframe is queried in the
+// keyframe database for places seen long before; a candidate must be consistent over several consecutive
+// keyframes, then is verified geometrically (vocabulary-guided matches, Sim(3) RANSAC, a projection search of the
+// candidate's neighbourhood), and the loop is corrected: the Sim(3) correction propagated to the keyframe's
+// neighbourhood, the duplicated points fused, the essential graph (spanning tree, covisibility >= 100, loop
+// edges) optimized over Sim(3), and a global bundle adjustment. Sequential: the caller holds the map.
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "pslam/core/Params.h"
+#include "pslam/geometry/Sim3.h"
+#include "pslam/map/Map.h"
+#include "pslam/optimize/Params.h"
+#include "pslam/places/KeyFrameDatabase.h"
+
+namespace pslam::loopclosing {
+
+struct LoopClosingParams {
+  bool enabled = false;
+  int minMapKeyFrames = 10;           ///< ORB-SLAM: no loop before 10 keyframes
+  int minKeyFramesBetweenLoops = 10;  ///< ORB-SLAM: 10 keyframes after the last loop
+  int consistency = 3;                ///< consecutive keyframes whose candidate groups overlap (ORB-SLAM: 3)
+  int minBowMatches = 20;             ///< vocabulary-guided point matches for the Sim(3) (ORB-SLAM: 20)
+  int minSim3Inliers = 20;            ///< Sim(3) RANSAC inliers (ORB-SLAM: 20)
+  int minLoopMatches = 40;            ///< matches after the projection search of the loop neighbourhood (ORB-SLAM: 40)
+  int essentialGraphMinWeight = 100;  ///< covisibility edges of the essential graph (ORB-SLAM: 100)
+  int essentialGraphIterations = 20;  ///< LM iterations of the Sim(3) pose graph (ORB-SLAM: 20)
+  int globalBAIterations = 10;        ///< global BA after the correction (ORB-SLAM: 10); 0 = none
+
+  template <class V>
+  void visitFields(V& v) {
+    using namespace pslam::params;
+    PSLAM_FIELD(v, enabled, anyValue, "detect and close loops (needs [Places] vocabulary)");
+    PSLAM_FIELD(v, minMapKeyFrames, atLeast(3), "no loop detection before the map has this many keyframes");
+    PSLAM_FIELD(v, minKeyFramesBetweenLoops, atLeast(0), "keyframes after a closed loop before the next detection");
+    PSLAM_FIELD(v, consistency, atLeast(0), "consecutive keyframes with overlapping candidate groups");
+    PSLAM_FIELD(v, minBowMatches, atLeast(3), "vocabulary-guided matches needed for a Sim(3) estimate");
+    PSLAM_FIELD(v, minSim3Inliers, atLeast(3), "Sim(3) RANSAC inliers needed");
+    PSLAM_FIELD(v, minLoopMatches, atLeast(3), "matches of the loop neighbourhood needed to accept the loop");
+    PSLAM_FIELD(v, essentialGraphMinWeight, atLeast(1), "covisibility weight of essential-graph edges");
+    PSLAM_FIELD(v, essentialGraphIterations, atLeast(1), "iterations of the Sim(3) pose-graph optimization");
+    PSLAM_FIELD(v, globalBAIterations, atLeast(0), "global BA iterations after a correction (0 = none)");
+  }
+  PSLAM_PARAMS("LoopClosing")
+};
+
+/// What loop closing did with one keyframe (report.json "loops").
+struct LoopReport {
+  map::KeyFrameId keyFrame = map::kNoKeyFrame;
+  int candidates = 0;            ///< database candidates
+  int consistentCandidates = 0;  ///< of those, consistent over `consistency` keyframes
+  /// Per verified candidate: its id, vocabulary matches, Sim(3) inliers, loop matches (-1 = stage not reached).
+  struct Verification {
+    map::KeyFrameId candidate = map::kNoKeyFrame;
+    int bowMatches = -1, sim3Inliers = -1, loopMatches = -1;
+  };
+  std::vector<Verification> verified;
+  bool closed = false;
+  map::KeyFrameId matchedKeyFrame = map::kNoKeyFrame;
+  double scale = 1.0;               ///< scale of the correction S_cw (the drift in scale)
+  double correctionMetres = 0.0;    ///< how far the keyframe's centre moved
+  int correctedKeyFrames = 0, fusedPoints = 0, essentialGraphEdges = 0;
+  double ms = 0.0;
+  /// A closed loop's scale change of every keyframe: camera-frame lengths of keyframe k before the correction are
+  /// keyFrameScales[k] x those after (what frames tracked relative to k rescale by). Not in toJson().
+  std::map<map::KeyFrameId, double> keyFrameScales;
+  nlohmann::json toJson() const;
+};
+
+class LoopCloser {
+ public:
+  /// `vocabulary`'s keyframes must carry their BoW vectors and direct index (the tracker computes them).
+  /// Calls params.check().
+  LoopCloser(map::Map& map, const LoopClosingParams& params, const optimize::BundleAdjustmentParams& ba,
+             std::uint32_t seed);
+
+  /// Loop detection, verification and correction for keyframe `kf` (after local mapping processed it). The
+  /// keyframe joins the loop database either way.
+  LoopReport processKeyFrame(map::KeyFrameId kf);
+  /// Forgets the database and the consistency state (a new map).
+  void reset();
+  int loopsClosed() const { return loopsClosed_; }
+
+ private:
+  struct Group {
+    std::set<map::KeyFrameId> keyFrames;
+    int consistency = 0;
+  };
+  /// Candidates consistent over params_.consistency keyframes (ORB-SLAM's DetectLoop).
+  std::vector<map::KeyFrameId> detect(map::KeyFrameId kf, LoopReport& report);
+  /// Loop matches of keyframe `kf` (keypoint -> loop point) for `candidate`, with S_cw, if verified.
+  bool verify(map::KeyFrameId kf, map::KeyFrameId candidate, geometry::Sim3& S_cw,
+              std::map<std::size_t, map::MapPointId>& loopMatches, LoopReport::Verification& v);
+  void correct(map::KeyFrameId kf, map::KeyFrameId matched, const geometry::Sim3& S_cw,
+               const std::map<std::size_t, map::MapPointId>& loopMatches, LoopReport& report);
+  /// Projection of `points` into keyframe `kf` at S_cw: per keypoint not in `taken`, the best point within the
+  /// window (descriptor <= TH_LOW). Returns keypoint -> point.
+  std::map<std::size_t, map::MapPointId> searchByProjection(map::KeyFrameId kf, const geometry::Sim3& S_cw,
+                                                            const std::vector<map::MapPointId>& points,
+                                                            const std::set<std::size_t>& taken, float radius) const;
+  bool usablePoint(map::MapPointId id) const;
+
+  map::Map& map_;
+  LoopClosingParams params_;
+  optimize::BundleAdjustmentParams ba_;
+  std::mt19937 rng_;
+  places::KeyFrameDatabase database_;
+  std::vector<Group> groups_;
+  map::KeyFrameId lastLoopKeyFrame_ = map::kNoKeyFrame;
+  /// Loop edges of the loops closed so far (kept in the essential graph of later loops).
+  std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>> loopEdges_;
+  int loopsClosed_ = 0;
+};
+
+}  // namespace pslam::loopclosing
