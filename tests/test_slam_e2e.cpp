@@ -139,6 +139,9 @@ void expectTracksWithFusionBand(const std::string& band) {
   const std::regex key(R"(\nfusionDistanceBand *= *[0-9.]+)");
   ASSERT_TRUE(std::regex_search(ini, key)) << "the shipped synthetic.ini sets fusionDistanceBand";
   ini = std::regex_replace(ini, key, "\nfusionDistanceBand = " + band);
+  // The copy lives elsewhere: its vocabulary path (relative to the config's folder) becomes absolute.
+  ini = std::regex_replace(ini, std::regex(R"(\nvocabulary *= *\.\./)"),
+                           "\nvocabulary = " + (kConfig.parent_path() / "..").lexically_normal().string() + "/");
   const std::string mapper = "band_" + band;
   const fs::path config = tempRoot() / ("synthetic_" + mapper + ".ini");
   std::ofstream(config) << ini;

@@ -13,7 +13,9 @@ struct PlacesParams {
   /// Level of the direct index, counted up from the leaves (ORB-SLAM: 4 on its depth-6 tree, i.e. level 2).
   int directIndexLevelsUp = 3;
   bool relocalization = true;     ///< relocalization candidates from the keyframe database, matched by node
-  bool referenceTracking = true;  ///< reference-keyframe tracking matched by node (ORB-SLAM's SearchByBoW)
+  /// Reference-keyframe tracking matched by node (ORB-SLAM's SearchByBoW). Off by default: it is used about once per
+  /// run (the frame after initialization), and its fewer matches moved single runs both ways (doc/places.md).
+  bool referenceTracking = false;
   /// Triangulation candidates restricted to the keypoint's node: off by default, because the fewer matches make
   /// more keyframes and more local BA than the node search saves (doc/places.md).
   bool triangulation = false;
