@@ -17,6 +17,7 @@
 #include "pslam/places/Vocabulary.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/system/System.h"
+#include "pslam_test/SameStampPairs.h"
 #include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
@@ -118,15 +119,8 @@ LoopRun runLoop(bool loopClosing) {
 
 /// The estimate aligned (Sim(3)) to the ground truth, both restricted to the common timestamps.
 std::pair<Trajectory, Trajectory> aligned(const Trajectory& est) {
-  const Trajectory gt = readTumTrajectory(roomLoop().parent_path() / "room_loop_groundtruth.txt");
-  Trajectory g, e;
-  for (const auto& p : est)
-    for (const auto& q : gt)
-      if (std::abs(q.timestamp - p.timestamp) < 1e-4) {
-        g.push_back(q);
-        e.push_back(p);
-        break;
-      }
+  const auto [g, e] = test_support::sameStampPairs(
+      readTumTrajectory(roomLoop().parent_path() / "room_loop_groundtruth.txt"), est);
   return {g, eval::applyAlignment(e, eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3))};
 }
 

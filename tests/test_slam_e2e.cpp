@@ -28,6 +28,7 @@
 #include "pslam/system/System.h"
 #include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
+#include "pslam_test/SameStampPairs.h"
 #include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
@@ -85,15 +86,7 @@ std::string readText(const fs::path& p) {
 
 // Sim(3) ATE (RMSE) of an estimate against the ground truth; poses paired by equal timestamps.
 double ateSim3(const Trajectory& gt, const Trajectory& est) {
-  Trajectory g, e;
-  for (const auto& p : est) {
-    for (const auto& q : gt)
-      if (std::abs(q.timestamp - p.timestamp) < 1e-4) {
-        g.push_back(q);
-        e.push_back(p);
-        break;
-      }
-  }
+  const auto [g, e] = test_support::sameStampPairs(gt, est);
   EXPECT_EQ(e.size(), est.size());
   const auto a = eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3);
   return eval::computeAte(g, eval::applyAlignment(e, a)).stats.rmse;
@@ -206,14 +199,7 @@ TEST(SlamE2E, ProbabilisticModelLearnsFromEveryTrackedFrameDeterministically) {
   // DR (eq. 2.104) of the run's depths against the DEPTH channel, scaled by the Sim(3) alignment.
   const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
   const Trajectory est = readTumTrajectory(a / "trajectory.txt");
-  Trajectory g, e;
-  for (const auto& p : est)
-    for (const auto& q : gt)
-      if (std::abs(q.timestamp - p.timestamp) < 1e-4) {
-        g.push_back(q);
-        e.push_back(p);
-        break;
-      }
+  const auto [g, e] = test_support::sameStampPairs(gt, est);
   eval::DepthRatioOptions dro;
   dro.scale = eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3).scale;
   const auto dr = eval::computeDepthRatio(eval::readDepthSamples(a / "depths.txt"), roomRawlog(), dro);

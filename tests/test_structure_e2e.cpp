@@ -14,6 +14,7 @@
 #include "pslam/eval/Metrics.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/system/System.h"
+#include "pslam_test/SameStampPairs.h"
 #include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
@@ -68,15 +69,7 @@ SlamRun runSystem(const fs::path& rawlog, const std::string& config, const std::
 }
 
 double ateSim3(const fs::path& groundTruth, const Trajectory& est) {
-  const Trajectory gt = readTumTrajectory(groundTruth);
-  Trajectory g, e;
-  for (const auto& p : est)
-    for (const auto& q : gt)
-      if (std::abs(q.timestamp - p.timestamp) < 1e-4) {
-        g.push_back(q);
-        e.push_back(p);
-        break;
-      }
+  const auto [g, e] = test_support::sameStampPairs(readTumTrajectory(groundTruth), est);
   const auto a = eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3);
   return eval::computeAte(g, eval::applyAlignment(e, a)).stats.rmse;
 }
