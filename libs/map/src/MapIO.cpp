@@ -264,16 +264,7 @@ void CSlamMapArchive::serializeTo(mrpt::serialization::CArchive& out) const {
 
 void CSlamMapArchive::serializeFrom(mrpt::serialization::CArchive& in, uint8_t version) {
   // MRPT wraps exceptions thrown here into its own generic message; keep ours for loadMap().
-  readFailure.clear();
-  try {
-    readContent(in, version);
-  } catch (const Error& e) {
-    readFailure = e.what();
-    throw;
-  } catch (const std::exception& e) {  // MRPT's: the archive ends inside the map
-    readFailure = "malformed map data (" + oneLineMessage(e) + ")";
-    throw;
-  }
+  readRecordingFailure(readFailure, "map", [&] { readContent(in, version); });
 }
 
 void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t version) {

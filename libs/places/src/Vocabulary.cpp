@@ -363,16 +363,7 @@ void CVocabularyArchive::serializeTo(mrpt::serialization::CArchive& out) const {
 }
 
 void CVocabularyArchive::serializeFrom(mrpt::serialization::CArchive& in, uint8_t version) {
-  readFailure.clear();
-  try {
-    readContent(in, version);
-  } catch (const Error& e) {
-    readFailure = e.what();
-    throw;
-  } catch (const std::exception& e) {
-    readFailure = "malformed vocabulary data (" + oneLineMessage(e) + ")";
-    throw;
-  }
+  readRecordingFailure(readFailure, "vocabulary", [&] { readContent(in, version); });
 }
 
 void CVocabularyArchive::readContent(mrpt::serialization::CArchive& in, uint8_t version) {

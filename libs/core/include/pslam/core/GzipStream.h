@@ -10,6 +10,8 @@
 
 #include <mrpt/io/CStream.h>
 
+#include "pslam/core/Error.h"
+
 namespace pslam {
 
 class GzipInputStream : public mrpt::io::CStream {
@@ -68,5 +70,23 @@ void verifyGzipFile(const std::filesystem::path& path);
 [[noreturn]] void throwArchiveReadError(const std::filesystem::path& path, const std::exception& e,
                                         const GzipInputStream& stream, const std::string& contentFailure,
                                         const std::string& fileKind);
+
+/// The body of a single-object archive's serializeFrom() (maps, vocabularies): runs `read`, keeping why it failed in
+/// `failure` (a pslam::Error's message, or "malformed <what> data (...)" for MRPT's own exceptions, e.g. the archive
+/// ending inside the object), then rethrows. MRPT replaces the message of exceptions thrown inside an object, so
+/// the loader reports `failure` (throwArchiveReadError).
+template <class Read>
+void readRecordingFailure(std::string& failure, const std::string& what, Read&& read) {
+  failure.clear();
+  try {
+    read();
+  } catch (const Error& e) {
+    failure = e.what();
+    throw;
+  } catch (const std::exception& e) {
+    failure = "malformed " + what + " data (" + oneLineMessage(e) + ")";
+    throw;
+  }
+}
 
 }  // namespace pslam
