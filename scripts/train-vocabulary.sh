@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
-# Trains the bag-of-words vocabulary shipped as config/places/orb_k10_l5.pvoc (doc/places.md). Maintainer step:
-# CI and the README never train, they use the shipped file.
+# Trains the bag-of-words vocabulary of doc/places.md into out/places/orb_k10_l5.pvoc (3.5 MB: generated data, kept
+# out of the repository). Use it with
+#   slam-run ... --set Places.vocabulary=$PWD/out/places/orb_k10_l5.pvoc --set LoopClosing.enabled=true
 #
 # Data: the real recordings of ../shared/data (KITTI 00: 200 frames, TUM fr3_cabinet every 20th: 58) and synthetic
 # scenes of a seed the evaluations do not use (room, corridor, street, jam; seed 11, 150 frames each).
 # ORB: the extractor defaults (2000 features, 8 levels, 1.2), as config/slam/kitti.ini; k = 10, L = 5, seed 0.
-# Environment: BUILD_DIR (build), WORK_DIR (/tmp/vocab-train), OUT (config/places/orb_k10_l5.pvoc).
+# Environment: BUILD_DIR (build), WORK_DIR (/tmp/vocab-train), OUT (out/places/orb_k10_l5.pvoc).
 # Takes a few minutes on 2 cores (most of it rendering).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
 WORK_DIR=${WORK_DIR:-/tmp/vocab-train}
-OUT=${OUT:-config/places/orb_k10_l5.pvoc}
+OUT=${OUT:-out/places/orb_k10_l5.pvoc}
 DATA=../shared/data
 B="$BUILD_DIR/bin"
 for tool in dataset2rawlog slam-synth vocab-train; do
