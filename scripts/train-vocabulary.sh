@@ -1,18 +1,17 @@
 #!/usr/bin/env bash
-# Trains the bag-of-words vocabulary of doc/places.md into out/places/orb_k10_l5.pvoc (3.5 MB: generated data, kept
-# out of the repository). Use it with
-#   slam-run ... --set Places.vocabulary=$PWD/out/places/orb_k10_l5.pvoc --set LoopClosing.enabled=true
+# Trains the bag-of-words vocabulary shipped as config/places/orb_k16_l4.pvoc (doc/places.md). Maintainer step:
+# CI and the README never train, they use the shipped file.
 #
 # Data: the real recordings of ../shared/data (KITTI 00: 200 frames, TUM fr3_cabinet every 20th: 58) and synthetic
 # scenes of a seed the evaluations do not use (room, corridor, street, jam; seed 11, 150 frames each).
-# ORB: the extractor defaults (2000 features, 8 levels, 1.2), as config/slam/kitti.ini; k = 10, L = 5, seed 0.
-# Environment: BUILD_DIR (build), WORK_DIR (/tmp/vocab-train), OUT (out/places/orb_k10_l5.pvoc).
+# ORB: the extractor defaults (2000 features, 8 levels, 1.2), as config/slam/kitti.ini; k = 16, L = 4, seed 0 (65 228 words, 2.2 MB).
+# Environment: BUILD_DIR (build), WORK_DIR (/tmp/vocab-train), OUT (config/places/orb_k16_l4.pvoc).
 # Takes a few minutes on 2 cores (most of it rendering).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
 WORK_DIR=${WORK_DIR:-/tmp/vocab-train}
-OUT=${OUT:-out/places/orb_k10_l5.pvoc}
+OUT=${OUT:-config/places/orb_k16_l4.pvoc}
 DATA=../shared/data
 B="$BUILD_DIR/bin"
 for tool in dataset2rawlog slam-synth vocab-train; do
@@ -32,9 +31,9 @@ mkdir -p "$WORK_DIR"
 for s in room corridor street jam; do
   "$B/slam-synth" --scenario "$s" --seed 11 --frames 150 --out "$WORK_DIR/synth" --name "${s}_s11" --threads 2 --quiet
 done
-"$B/vocab-train" --out "$OUT" --branching 10 --depth 5 --seed 0 --every 1 \
+"$B/vocab-train" --out "$OUT" --branching 16 --depth 4 --seed 0 --every 1 \
   --rawlog "$WORK_DIR/kitti/kitti_00.rawlog" --rawlog "$WORK_DIR/tum/cabinet.rawlog" \
   --rawlog "$WORK_DIR/synth/room_s11.rawlog" --rawlog "$WORK_DIR/synth/corridor_s11.rawlog" \
   --rawlog "$WORK_DIR/synth/street_s11.rawlog" --rawlog "$WORK_DIR/synth/jam_s11.rawlog" \
-  --description "scripts/train-vocabulary.sh: KITTI 00 (200 frames), TUM fr3_cabinet every 20th (58), slam-synth room/corridor/street/jam seed 11 (150 frames each); ORB defaults; k 10, L 5, seed 0"
+  --description "scripts/train-vocabulary.sh: KITTI 00 (200 frames), TUM fr3_cabinet every 20th (58), slam-synth room/corridor/street/jam seed 11 (150 frames each); ORB defaults; k 16, L 4, seed 0"
 echo "train-vocabulary.sh: $OUT written"
