@@ -643,8 +643,14 @@ std::vector<Tracker::RelocCandidate> Tracker::relocalizationCandidates(Frame& fr
 }
 
 bool Tracker::relocalize(Frame& frame) {
-  // Candidate keyframes with their matches, most matches first; each is tried by PnP.
-  const std::vector<RelocCandidate> cands = relocalizationCandidates(frame);
+  // Candidate keyframes with their matches, most matches first; each is tried by PnP. The query (BoW vector,
+  // database, node matching) is timed on its own: it grows with the map differently from the PnP attempts.
+  std::vector<RelocCandidate> cands;
+  {
+    std::optional<ScopedStage> stage;
+    if (timings_) stage.emplace(*timings_, "relocalization_query");
+    cands = relocalizationCandidates(frame);
+  }
   for (const RelocCandidate& c : cands) {
     std::vector<Eigen::Vector3d> pts;
     std::vector<Eigen::Vector2d> pixels;
