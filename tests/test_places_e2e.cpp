@@ -3,6 +3,7 @@
 // the camera again within three frames; a full loop through the room is closed (the drift where the loop meets
 // its start and the ATE drop against the same run without loop closing); a bad vocabulary file fails the run
 // before its first frame.
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -152,9 +153,10 @@ TEST(PlacesE2E, ABlankFrameIsFollowedByARelocalizationWithinThreeFrames) {
 }
 
 TEST(PlacesE2E, WithoutAVocabularyTheSameBlankFrameAlsoRelocalizesByExhaustiveMatching) {
-  // The reference the vocabulary replaces: the exhaustive search finds the camera again too (only slower).
+  // The reference the vocabulary replaces: the exhaustive search finds the camera again too (only slower). The
+  // shipped config has a vocabulary: it is taken away here.
   const auto& frames = roomFrames();
-  system::System sys(paramsWith({}), {1, false, std::nullopt});
+  system::System sys(paramsWith({"Places.vocabulary=", "LoopClosing.enabled=false"}), {1, false, std::nullopt});
   std::size_t relocalizedAt = 0;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     datasets::Frame f = frames[i];
@@ -164,6 +166,64 @@ TEST(PlacesE2E, WithoutAVocabularyTheSameBlankFrameAlsoRelocalizesByExhaustiveMa
   }
   EXPECT_GT(relocalizedAt, 40u);
   EXPECT_LE(relocalizedAt, 43u);
+}
+
+namespace {
+struct WithdrawalRun {
+  std::size_t relocalizedAt = 0;  ///< the first relocalization after the blank frame (0: none)
+  std::size_t retractedAtNext = 0;  ///< TrackResult::retractedFrames of the frame after it
+  Trajectory trajectory;
+  nlohmann::json summary;
+};
+
+/// The room with frame 40 blank, then the frame right after the first relocalization blank too: tracking is
+/// lost just after that relocalization, as after an aliased one.
+WithdrawalRun loseTrackingRightAfterARelocalization(int checkFrames) {
+  const auto& frames = roomFrames();
+  system::System sys(paramsWith({"Places.vocabulary=" + vocabularyFile().string(),
+                                 "Tracking.relocalizationCheckFrames=" + std::to_string(checkFrames)}),
+                     {1, false, std::nullopt});
+  WithdrawalRun run;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    datasets::Frame f = frames[i];
+    if (i == 40 || (run.relocalizedAt > 0 && i == run.relocalizedAt + 1))
+      f.image = cv::Mat::zeros(f.image.size(), f.image.type());
+    const system::TrackResult r = sys.track(f);
+    if (i > 40 && run.relocalizedAt == 0 && r.status == tracking::FrameStatus::Relocalized) run.relocalizedAt = i;
+    if (run.relocalizedAt > 0 && i == run.relocalizedAt + 1) run.retractedAtNext = r.retractedFrames;
+  }
+  run.trajectory = sys.trajectory();
+  run.summary = sys.summary();
+  return run;
+}
+
+bool hasStamp(const Trajectory& t, double stamp) {
+  for (const StampedPose& p : t)
+    if (std::abs(p.timestamp - stamp) < 1e-6) return true;
+  return false;
+}
+}  // namespace
+
+TEST(PlacesE2E, ARelocalizationLostOnTheNextFrameIsWithdrawn) {
+  const WithdrawalRun run = loseTrackingRightAfterARelocalization(2);
+  ASSERT_GT(run.relocalizedAt, 40u) << "never relocalized after the blank frame";
+  EXPECT_EQ(run.retractedAtNext, 1u);
+  const double stamp = roomFrames()[run.relocalizedAt].timestamp;
+  EXPECT_FALSE(hasStamp(run.trajectory, stamp)) << "the withdrawn frame still has a pose";
+  EXPECT_EQ(run.summary["relocalizations_withdrawn"], 1);
+  // Tracking finds the camera again afterwards, and that relocalization holds: the clip's last frame is tracked.
+  EXPECT_GE(run.summary["relocalizations"], 1);
+  EXPECT_TRUE(hasStamp(run.trajectory, roomFrames().back().timestamp));
+  EXPECT_EQ(static_cast<std::size_t>(run.summary["frames_tracked"]), run.trajectory.size() - 1)
+      << "tracked frames and trajectory disagree (the trajectory also has the initializer's reference frame)";
+}
+
+TEST(PlacesE2E, WithoutTheCheckTheSameRelocalizationKeepsItsPose) {
+  const WithdrawalRun run = loseTrackingRightAfterARelocalization(0);
+  ASSERT_GT(run.relocalizedAt, 40u);
+  EXPECT_EQ(run.retractedAtNext, 0u);
+  EXPECT_TRUE(hasStamp(run.trajectory, roomFrames()[run.relocalizedAt].timestamp));
+  EXPECT_EQ(run.summary["relocalizations_withdrawn"], 0);
 }
 
 TEST(PlacesE2E, ABadVocabularyFailsTheSystemBeforeItsFirstFrame) {

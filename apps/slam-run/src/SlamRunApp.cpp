@@ -192,7 +192,8 @@ SlamRunSummary SlamRunApp::run() {
   datasets::Frame input;
   std::optional<std::chrono::steady_clock::time_point> realtimeStart;  // --realtime: wall time of the first frame
   double firstTimestamp = 0.0;
-  std::vector<bool> localized;  // per processed frame: has a pose in the map
+  std::vector<bool> localized;            // per processed frame: has a pose in the map
+  std::vector<std::size_t> localizedIndex;  // its rawlog index
   while (reader.next(input)) {
     ++sum.framesRead;
     if (input.index < options_.first) continue;
@@ -234,15 +235,20 @@ SlamRunSummary SlamRunApp::run() {
     } catch (const Error& e) {
       throw Error(options_.rawlog.string() + ": " + e.what());
     }
+    // A withdrawn relocalization takes back the poses of the frames before this one.
+    for (std::size_t k = localized.size() - std::min(r.retractedFrames, localized.size()); k < localized.size(); ++k)
+      localized[k] = false;
     localized.push_back(r.pose.has_value());
-    if (r.pose) {
-      ++sum.framesLocalized;
-      if (sum.firstLocalizedFrame < 0) sum.firstLocalizedFrame = static_cast<long long>(input.index);
-    }
+    localizedIndex.push_back(input.index);
     ++sum.framesProcessed;
     progress.update(sum.framesProcessed, std::string(tracking::toString(r.status)) + " kf " +
                                              std::to_string(r.report.keyFrames) + " pts " +
                                              std::to_string(r.report.mapPoints));
+  }
+  for (std::size_t k = 0; k < localized.size(); ++k) {
+    if (!localized[k]) continue;
+    ++sum.framesLocalized;
+    if (sum.firstLocalizedFrame < 0) sum.firstLocalizedFrame = static_cast<long long>(localizedIndex[k]);
   }
   require(sum.framesProcessed > 0 || sum.framesRead == 0, options_.rawlog.string(),
           "no frame in the range [" + std::to_string(options_.first) + ", " + std::to_string(lastIndex) + "]");

@@ -53,7 +53,8 @@ void relativeToReference(const ImplT& s, const tracking::Tracker::Result& res, m
 }
 
 struct Counters {
-  std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, resets = 0, loopsClosed = 0;
+  std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, relocalizationsWithdrawn = 0, resets = 0;
+  std::size_t loopsClosed = 0;
   std::size_t manhattanFrames = 0, manhattanTracked = 0, fallbackTracked = 0;
   long long initializedAtFrame = -1;
 };
@@ -526,6 +527,20 @@ TrackResult System::track(const datasets::Frame& input) {
     s.poses.push_back({res.initialReferencePose->first, s.generation, root, Eigen::Isometry3d::Identity(),
                        res.initialReferencePose->second});
   }
+  if (res.retractedFrames > 0) {
+    // The tracker withdrew a relocalization (lost again right after it): its frames lose their poses, in the
+    // trajectory, the counters and report.json alike. They are the last frames with a pose, none a keyframe.
+    const std::size_t n = std::min({res.retractedFrames, s.poses.size(), s.frames.size()});
+    s.poses.erase(s.poses.end() - static_cast<std::ptrdiff_t>(n), s.poses.end());
+    for (std::size_t k = s.frames.size() - n; k < s.frames.size(); ++k) {
+      s.frames[k]["status"] = tracking::toString(tracking::FrameStatus::Lost);
+      s.frames[k]["relocalization_withdrawn"] = true;
+    }
+    c.tracked -= n;
+    c.lost += n;
+    if (c.relocalizations > 0) --c.relocalizations;
+    ++c.relocalizationsWithdrawn;
+  }
   if (res.report.status == tracking::FrameStatus::Lost) ++c.lost;
   if (res.report.manhattan.frameValid) ++c.manhattanFrames;
   if (res.hasPose && res.report.manhattan.mode == "manhattan") ++c.manhattanTracked;
@@ -542,6 +557,7 @@ TrackResult System::track(const datasets::Frame& input) {
   out.status = res.report.status;
   out.keyFrame = res.report.keyFrame;
   out.mapWasReset = res.mapWasReset;
+  out.retractedFrames = res.retractedFrames;
   if (res.hasPose) out.pose = StampedPose(input.timestamp, res.T_cam_world.inverse()).toCPose3D();
   out.report = std::move(res.report);
   return out;
@@ -678,6 +694,7 @@ nlohmann::json System::summary() const {
           {"frames_tracked", c.tracked},
           {"frames_lost", c.lost},
           {"relocalizations", c.relocalizations},
+          {"relocalizations_withdrawn", c.relocalizationsWithdrawn},
           {"initialized", c.initializedAtFrame >= 0},
           {"initialized_at_frame", c.initializedAtFrame},
           {"keyframes", keyFrames},

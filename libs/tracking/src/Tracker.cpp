@@ -99,6 +99,7 @@ void Tracker::onMapLoaded() {
   haveVelocity_ = false;
   referenceKeyFrame_ = map::kNoKeyFrame;
   relocalizedEver_ = false;
+  unconfirmedRelocFrames_ = 0;
   localKeyFrames_.clear();
   last_ = Frame();
   R_world_mf_.reset();  // found again on the first tracked frame with a Manhattan frame
@@ -115,6 +116,7 @@ void Tracker::reset() {
   haveVelocity_ = false;
   referenceKeyFrame_ = map::kNoKeyFrame;
   relocalizedEver_ = false;
+  unconfirmedRelocFrames_ = 0;
   localKeyFrames_.clear();
   last_ = Frame();
   R_world_mf_.reset();
@@ -855,9 +857,16 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
     rep.status = FrameStatus::Lost;
     haveVelocity_ = false;
     lost_ = true;
+    if (unconfirmedRelocFrames_ > 0) {
+      // Lost right after a relocalization: it put the camera at a place that only looked like this one.
+      res.retractedFrames = unconfirmedRelocFrames_;
+      unconfirmedRelocFrames_ = 0;
+      rep.message = "lost " + std::to_string(res.retractedFrames) +
+                    " frame(s) after a relocalization: its poses are withdrawn";
+    }
     if (mapUpdates_ && map_.numKeyFrames() <= static_cast<std::size_t>(params_.resetKeyFrames)) {
       // ORB-SLAM: a map this young is not worth relocalizing into; start over.
-      rep.message = "lost with " + std::to_string(map_.numKeyFrames()) + " keyframes: map reset";
+      rep.message = (rep.message.empty() ? "" : rep.message + "; ") + "lost with " + std::to_string(map_.numKeyFrames()) + " keyframes: map reset";
       reset();
       res.mapWasReset = true;
     }
@@ -868,6 +877,12 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
 
   lost_ = false;
   rep.status = relocalized ? FrameStatus::Relocalized : FrameStatus::Tracking;
+  // A relocalization counts once relocalizationCheckFrames more frames are tracked after it.
+  if (relocalized)
+    unconfirmedRelocFrames_ = params_.relocalizationCheckFrames > 0 ? 1 : 0;
+  else if (unconfirmedRelocFrames_ > 0 &&
+           ++unconfirmedRelocFrames_ > static_cast<std::size_t>(params_.relocalizationCheckFrames))
+    unconfirmedRelocFrames_ = 0;
   // A map initialized (or loaded) without a Manhattan frame takes the first tracked frame's as the global one.
   if (manhattan_ && !R_world_mf_ && frame.R_cam_mf) R_world_mf_ = frame.T_cam_world.linear().transpose() * *frame.R_cam_mf;
   // §3.4.2: "with each new frame we update the semantic class probabilities, the depth mean, depth variance
@@ -915,6 +930,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   kin.directReferenceActive = rep.direct.referenceActive;
   if (mapUpdates_ && needNewKeyFrame(kin, params_.keyFrames)) {
     res.newKeyFrames.push_back(createKeyFrame(frame, manhattanTracked));
+    unconfirmedRelocFrames_ = 0;  // the map now builds on this pose: too late to withdraw it
     computeKeyFrameBow(res.newKeyFrames.back());
     rep.keyFrame = true;
   } else if (mapUpdates_ && !kin.localMappingIdle) {

@@ -49,6 +49,9 @@ struct TrackResult {
   std::optional<mrpt::poses::CPose3D> pose;
   bool keyFrame = false;     ///< the frame became a keyframe
   bool mapWasReset = false;  ///< the tracker discarded the map (lost too early) and re-initializes
+  /// > 0: this frame was lost right after a relocalization ([Tracking] relocalizationCheckFrames), so the poses
+  /// returned for the previous retractedFrames frames are withdrawn (trajectory(), summary and report agree).
+  std::size_t retractedFrames = 0;
   tracking::FrameReport report;  ///< per-frame counts, method, message (report.json "frames")
 };
 

@@ -45,6 +45,10 @@ struct TrackerParams {
   int minLocalMapInliers = 30;
   int minInliersAfterReloc = 50;
   int relocalizationCandidates = 5;
+  /// A relocalization is kept only if the frames after it are tracked: lost again within this many frames, its
+  /// poses are withdrawn (Result::retractedFrames). An aliased place in a repetitive scene passes PnP and the
+  /// local map once, but rarely the next frames. 0 = every relocalization counts at once (ORB-SLAM).
+  int relocalizationCheckFrames = 2;
   int resetKeyFrames = 5;
   KeyFrameDecisionParams keyFrames;
   geometry::PnpParams pnp;
@@ -66,6 +70,8 @@ struct TrackerParams {
                 satisfies([this](int n) { return n >= minLocalMapInliers; }, "must be >= minLocalMapInliers"),
                 "... within keyFrames.maxFrames after a relocalization");
     PSLAM_FIELD(v, relocalizationCandidates, atLeast(1), "keyframes with most descriptor matches tried by PnP");
+    PSLAM_FIELD(v, relocalizationCheckFrames, atLeast(0),
+                "frames after a relocalization that must be tracked, else its poses are withdrawn (0 = off)");
     PSLAM_FIELD(v, resetKeyFrames, atLeast(2), "lost with at most this many keyframes: reset and re-initialize");
     // Both have a minInliers: both are prefixed (keyFrames.minInliers, pnp.minInliers).
     PSLAM_NESTED(v, keyFrames);
@@ -183,6 +189,10 @@ class Tracker {
     bool keyFrameWaitsForMapping = false;
     /// The reference frame of a successful initialization (gets a pose retroactively), else nullopt.
     std::optional<std::pair<double, Eigen::Isometry3d>> initialReferencePose;
+    /// > 0: this frame was lost within relocalizationCheckFrames of a relocalization, so that relocalization
+    /// was wrong: the poses of the previous retractedFrames frames (the relocalized one and those tracked after
+    /// it) are withdrawn. No keyframe was made from them (a keyframe in the window confirms the relocalization).
+    std::size_t retractedFrames = 0;
     /// Reference keyframe after this frame (ORB-SLAM stores frame poses relative to it), kNoKeyFrame if none.
     map::KeyFrameId referenceKeyFrame = map::kNoKeyFrame;
     /// Grey and SEMANTIC images of the initializer's reference frame (the first keyframe) after a successful
@@ -319,6 +329,8 @@ class Tracker {
   std::size_t lastKeyFrameFrame_ = 0;
   std::size_t lastRelocFrame_ = 0;
   bool relocalizedEver_ = false;
+  /// Frames with a pose since the last relocalization that is not yet confirmed (0: none pending).
+  std::size_t unconfirmedRelocFrames_ = 0;
   bool localMappingIdle_ = true;
   std::vector<map::KeyFrameId> localKeyFrames_;
   StageTimings* timings_ = nullptr;  ///< of the current track() call
