@@ -1,5 +1,6 @@
 #include "pslam/geometry/Pnp.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -32,6 +33,17 @@ mrpt::poses::CPose3D PnpResult::poseCamWorld() const {
     T(r, 3) = t_cam_world(r);
   }
   return mrpt::poses::CPose3D(T);
+}
+
+int ransacIterationBudget(const PnpParams& params, std::size_t correspondences, int sampleSize) {
+  // ORB-SLAM's PnPsolver::SetRansacParameters: a pose that can pass has at least minInliers of the n
+  // correspondences as inliers, so an all-inlier sample is drawn with probability >= (minInliers / n)^s; enough
+  // samples to see one with the RANSAC confidence, never more than ransacIterations. Small candidate sets that
+  // fail (relocalization against keyframes that only look alike) no longer cost the full budget each.
+  const double epsilon = static_cast<double>(params.minInliers) / static_cast<double>(correspondences);
+  if (epsilon >= 1.0) return 1;
+  const double iterations = std::ceil(std::log(1.0 - params.confidence) / std::log(1.0 - std::pow(epsilon, sampleSize)));
+  return static_cast<int>(std::clamp(iterations, 1.0, static_cast<double>(params.ransacIterations)));
 }
 
 PnpResult solvePnpRansac(const PinholeCamera& camera, const std::vector<Eigen::Vector3d>& points_world,
@@ -72,14 +84,21 @@ PnpResult solvePnpRansac(const PinholeCamera& camera, const std::vector<Eigen::V
   std::vector<int> ransacInliers;
   bool found = false;
   try {
-    found = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, params.ransacIterations,
-                               static_cast<float>(maxError), params.confidence, ransacInliers, cv::SOLVEPNP_EPNP);
+    const bool ap3p = params.minimalSolver == "ap3p";
+    found = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false,
+                               ransacIterationBudget(params, n, ap3p ? 4 : 5), static_cast<float>(maxError),
+                               params.confidence, ransacInliers, ap3p ? cv::SOLVEPNP_AP3P : cv::SOLVEPNP_EPNP);
   } catch (const cv::Exception& e) {
     return fail(PnpFailure::RansacFailed, std::string("cv::solvePnPRansac: ") + e.what());
   }
   if (!found || static_cast<int>(ransacInliers.size()) < 4) {
     return fail(PnpFailure::RansacFailed,
                 "no pose with at least 4 inliers among " + std::to_string(n) + " correspondences");
+  }
+  if (static_cast<int>(ransacInliers.size()) < params.minInliers) {
+    // The refinement only moves the pose within this consensus; no use refining a pose that cannot pass.
+    return fail(PnpFailure::TooFewInliers, std::to_string(ransacInliers.size()) + " of " + std::to_string(n) +
+                                               " RANSAC inliers, need " + std::to_string(params.minInliers));
   }
   if (params.refine) {
     std::vector<cv::Point3d> objectIn;

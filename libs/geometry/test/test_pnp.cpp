@@ -70,6 +70,34 @@ TEST(Pnp, RecoversPoseWithOutliers) {
   EXPECT_NEAR(p.z, q.z(), 1e-9);
 }
 
+TEST(Pnp, BothMinimalSolversRecoverThePoseOfASmallCandidateSet) {
+  // A relocalization candidate: 40 matches, a third wrong. The iteration budget is small here (minInliers 15
+  // of 40), and both samplers must still find the pose.
+  const PnpScene s = makePnpScene(40, 1.0, 0.33, 7);
+  for (const char* solver : {"epnp", "ap3p"}) {
+    PnpParams p;
+    p.minimalSolver = solver;
+    const PnpResult r = solvePnpRansac(testCamera(), s.points_world, s.pixels, p);
+    ASSERT_TRUE(r.success) << solver << ": " << toString(r.failure) << ": " << r.message;
+    EXPECT_LT(rotationErrorDeg(r.R_cam_world, s.R_cam_world), 0.5) << solver;
+  }
+}
+
+TEST(Pnp, IterationBudgetFollowsTheInlierShareAPassingPoseNeeds) {
+  PnpParams p;  // minInliers 15, confidence 0.99, at most 300
+  // (15/20)^5 = 0.237: ceil(log 0.01 / log 0.763) = 17 samples of 5; of 4: (0.75)^4 = 0.316 -> 13.
+  EXPECT_EQ(ransacIterationBudget(p, 20, 5), 17);
+  EXPECT_EQ(ransacIterationBudget(p, 20, 4), 13);
+  EXPECT_EQ(ransacIterationBudget(p, 15, 5), 1);    // every correspondence must be an inlier
+  EXPECT_EQ(ransacIterationBudget(p, 1000, 5), 300);  // capped by ransacIterations
+  int last = 0;
+  for (std::size_t n = 15; n <= 200; ++n) {
+    const int budget = ransacIterationBudget(p, n, 5);
+    EXPECT_GE(budget, last) << n;
+    last = budget;
+  }
+}
+
 TEST(Pnp, DeterministicAndClearFailures) {
   const PnpScene s = makePnpScene(120, 0.8, 0.2, 2);
   const PnpResult a = solvePnpRansac(testCamera(), s.points_world, s.pixels);

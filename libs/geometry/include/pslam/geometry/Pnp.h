@@ -25,6 +25,9 @@ struct PnpParams {
   double confidence = 0.99;
   int minInliers = 15;
   bool refine = true;
+  /// Minimal solver inside RANSAC: "epnp" (5 points a sample) or "ap3p" (4: three and one to choose among the
+  /// solutions; cheaper, and fewer samples for the same confidence).
+  std::string minimalSolver = "epnp";
 
   template <class V>
   void visitFields(V& v) {
@@ -35,6 +38,7 @@ struct PnpParams {
     PSLAM_FIELD(v, confidence, inOpen(0, 1), "RANSAC confidence");
     PSLAM_FIELD(v, minInliers, atLeast(4), "fewer inliers after refinement = failure (a pose has 6 degrees of freedom)");
     PSLAM_FIELD(v, refine, anyValue, "Levenberg-Marquardt refinement on the RANSAC inliers");
+    PSLAM_FIELD(v, minimalSolver, oneOf({"epnp", "ap3p"}), "minimal solver of the RANSAC samples");
   }
   PSLAM_PARAMS("Pnp")
 };
@@ -54,6 +58,11 @@ struct PnpResult {
 
   mrpt::poses::CPose3D poseCamWorld() const;
 };
+
+/// RANSAC iterations for n correspondences and samples of sampleSize points (ORB-SLAM's PnPsolver rule):
+/// enough to draw an all-inlier sample with params.confidence when minInliers of them are inliers, at most
+/// params.ransacIterations; 1 when n <= minInliers.
+int ransacIterationBudget(const PnpParams& params, std::size_t correspondences, int sampleSize);
 
 /// points_world[i] is observed at pixels[i]. Returns a failed result (never throws) for too few
 /// correspondences (< 4 or < minInliers), non-finite input, or too few inliers.
