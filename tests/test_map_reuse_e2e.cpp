@@ -206,7 +206,7 @@ TEST(MapReuse, BadMapsAreNamedAndNothingIsWritten) {
     mrpt::io::CFileGZOutputStream out(newer.string());
     out.Write(raw.data(), raw.size());
   }
-  expectRefused(newer, "unsupported .slammap format version 1", false);
+  expectRefused(newer, "unsupported .slammap format version 2", false);
 
   // The rawlog's camera differs from the map's (another focal length).
   const fs::path otherCamera = renderRoom(1, 2, 400.0);

@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
     o.progress = !quiet;
     pslam::apps::SlamRunApp app(o);
     const auto s = app.run();
+    if (!s.vocabularyWarning.empty()) std::cerr << "slam-run: warning: " << s.vocabularyWarning << "\n";
     if (!s.hasMap())
       std::cerr << "slam-run: warning: initialization never succeeded; wrote an empty trajectory\n";
     else if (s.mapLoaded && s.framesLocalized == 0)

@@ -80,7 +80,13 @@ std::vector<std::pair<map::MapPointId, double>> inlierRatios(const map::Map& map
   return out;
 }
 
-MapInfo mapInfo(const fs::path& file) { return mapInfo(map::loadMap(file), file); }
+MapInfo mapInfo(const fs::path& file) {
+  std::uint8_t version = map::CSlamMapArchive::kFormatVersion;
+  const map::Map m = map::loadMap(file, &version);
+  MapInfo info = mapInfo(m, file);
+  info.formatVersion = version;  // the file's, which may be older than the one this build writes
+  return info;
+}
 
 MapInfo mapInfo(const map::Map& map, const fs::path& file) {
   MapInfo info;
@@ -88,6 +94,7 @@ MapInfo mapInfo(const map::Map& map, const fs::path& file) {
   std::error_code ec;
   if (!file.empty() && fs::is_regular_file(file, ec)) info.fileBytes = fs::file_size(file, ec);
   info.formatVersion = map::CSlamMapArchive::kFormatVersion;
+  info.vocabulary = map.vocabulary();
   info.keyFrames = map.numKeyFrames();
   info.mapPoints = map.numMapPoints();
   if (!map.keyFrames().empty()) info.camera = map.keyFrames().begin()->second.camera;
@@ -140,6 +147,8 @@ nlohmann::json MapInfo::toJson() const {
   j["format_version"] = formatVersion;
   j["camera"] = {{"fx", camera.fx}, {"fy", camera.fy}, {"cx", camera.cx}, {"cy", camera.cy},
                  {"width", camera.width}, {"height", camera.height}};
+  j["vocabulary"] = vocabulary;
+  j["lines"] = "not stored (line landmarks live only in the run)";
   j["keyframes"] = keyFrames;
   j["map_points"] = mapPoints;
   j["bad_points"] = badPoints;
@@ -167,6 +176,8 @@ std::string MapInfo::toText() const {
   os << "map:          " << file.string() << " (" << fileBytes << " bytes, format version " << formatVersion << ")\n";
   os << "camera:       fx " << camera.fx << ", fy " << camera.fy << ", cx " << camera.cx << ", cy " << camera.cy
      << ", " << camera.width << "x" << camera.height << "\n";
+  os << "vocabulary:   " << (vocabulary.empty() ? std::string("none recorded (built without one)") : vocabulary) << "\n";
+  os << "lines:        not stored (line landmarks live only in the run)\n";
   os << "keyframes:    " << keyFrames;
   if (keyFrames > 0)
     os << " (timestamps " << fmt(firstStamp, 6) << " .. " << fmt(lastStamp, 6) << ", path " << fmt(keyFramePathLength)

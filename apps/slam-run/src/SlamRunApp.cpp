@@ -184,6 +184,12 @@ SlamRunSummary SlamRunApp::run() {
   // Made now to check the parameters; with a map it is made again at the first frame, with the rawlog's camera.
   std::optional<system::System> slam;
   slam.emplace(params, so);
+  if (loaded && !loaded->vocabulary().empty() && loaded->vocabulary() != slam->vocabularyFingerprint())
+    sum.vocabularyWarning = options_.mapIn.string() + ": the map was built with the vocabulary '" +
+                            loaded->vocabulary() + "', this run uses " +
+                            (slam->vocabularyFingerprint().empty() ? std::string("none")
+                                                                   : "'" + slam->vocabularyFingerprint() + "'") +
+                            ": keyframes are indexed with this run's, place recognition may differ";
 
   const std::size_t lastIndex = options_.last < 0 ? total - 1 : std::min<std::size_t>(options_.last, total - 1);
   const std::size_t toProcess = options_.first <= lastIndex ? lastIndex - options_.first + 1 : 0;
@@ -288,6 +294,7 @@ SlamRunSummary SlamRunApp::run() {
   for (const auto& [key, value] : counts.items())  // the System's counters the app summary does not repeat
     if (!report["summary"].contains(key)) report["summary"][key] = value;
   if (modesOut) plotManhattanModes(frames, modesOut->tempPath());
+  if (!sum.vocabularyWarning.empty()) report["vocabulary_warning"] = sum.vocabularyWarning;
   if (!sum.hasMap()) report["warning"] = "initialization never succeeded: the trajectory is empty";
   else if (sum.mapLoaded && sum.framesLocalized == 0) report["warning"] = "no frame was localized in the loaded map";
   writeOutputFile(reportOut, [&](std::ostream& os) { os << report.dump(1) << "\n"; });

@@ -539,7 +539,7 @@ bool equalMapPoints(const MapPoint& a, const MapPoint& b) {
 }
 
 bool Map::operator==(const Map& o) const {
-  if (nextKeyFrameId_ != o.nextKeyFrameId_ || nextMapPointId_ != o.nextMapPointId_ ||
+  if (nextKeyFrameId_ != o.nextKeyFrameId_ || nextMapPointId_ != o.nextMapPointId_ || vocabulary_ != o.vocabulary_ ||
       keyframes_.size() != o.keyframes_.size() || points_.size() != o.points_.size())
     return false;
   for (auto a = keyframes_.begin(), b = o.keyframes_.begin(); a != keyframes_.end(); ++a, ++b)

@@ -259,6 +259,7 @@ void CSlamMapArchive::serializeTo(mrpt::serialization::CArchive& out) const {
   for (const auto& [id, kf] : map.keyFrames()) writeKeyFrame(out, kf);
   out << std::uint64_t(map.mapPoints().size());
   for (const auto& [id, p] : map.mapPoints()) writeMapPoint(out, p);
+  out << map.vocabulary();
   out << kEndSentinel;
 }
 
@@ -268,9 +269,10 @@ void CSlamMapArchive::serializeFrom(mrpt::serialization::CArchive& in, uint8_t v
 }
 
 void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t version) {
-  if (version != kFormatVersion)
-    throw Error("unsupported .slammap format version " + std::to_string(version) + " (this build reads version " +
+  if (version > kFormatVersion)
+    throw Error("unsupported .slammap format version " + std::to_string(version) + " (this build reads versions 0 to " +
                 std::to_string(kFormatVersion) + ")");
+  readVersion = version;
   Map m;
   std::uint64_t nextKf = 0, nextPt = 0;
   in >> nextKf >> nextPt;
@@ -297,6 +299,12 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
     if (!MapSerializationAccess::points(m).emplace(id, std::move(p)).second)
       throw Error("duplicate map point id " + std::to_string(id));
   }
+  if (version >= 1) {
+    std::string vocabulary;
+    in >> vocabulary;
+    if (vocabulary.size() > 4096) throw Error("vocabulary fingerprint of " + std::to_string(vocabulary.size()) + " bytes");
+    m.setVocabulary(std::move(vocabulary));
+  }
   std::uint32_t sentinel = 0;
   in >> sentinel;
   if (sentinel != kEndSentinel) throw Error("missing end-of-map marker");
@@ -322,7 +330,7 @@ void saveMap(const Map& map, const std::filesystem::path& path) {
   out.commit();
 }
 
-Map loadMap(const std::filesystem::path& path) {
+Map loadMap(const std::filesystem::path& path, std::uint8_t* formatVersion) {
   // MRPT refuses to read objects of classes missing from its run-time registry.
   static std::once_flag registered;
   std::call_once(registered, [] { mrpt::rtti::registerClass(CLASS_ID(CSlamMapArchive)); });
@@ -344,6 +352,7 @@ Map loadMap(const std::filesystem::path& path) {
   } catch (const Error& e) {
     throw Error(path.string() + ": " + e.what());
   }
+  if (formatVersion) *formatVersion = wrapper.readVersion;
   return std::move(wrapper.map);
 }
 

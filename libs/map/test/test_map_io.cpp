@@ -79,7 +79,8 @@ std::string expectLoadError(const fs::path& p) {
 }  // namespace
 
 TEST(MapIO, RoundTripIsExact) {
-  const Map map = richMap();
+  Map map = richMap();
+  map.setVocabulary("k 16, L 4, 65228 words, fnv1a64 0123456789abcdef");
   const fs::path file = tempDir() / "round.slammap";
   saveMap(map, file);
   const Map loaded = loadMap(file);
@@ -97,6 +98,15 @@ TEST(MapIO, RoundTripIsExact) {
   // No temporary files left behind.
   for (const auto& e : fs::directory_iterator(file.parent_path()))
     EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
+}
+
+TEST(MapIO, TheVocabularyRecordIsPartOfTheMap) {
+  Map a = richMap(), b = richMap();
+  b.setVocabulary("another");
+  EXPECT_FALSE(a == b);
+  const fs::path file = tempDir() / "vocabulary.slammap";
+  saveMap(b, file);
+  EXPECT_EQ(loadMap(file).vocabulary(), "another");
 }
 
 TEST(MapIO, EmptyMapRoundTrip) {
@@ -158,7 +168,7 @@ TEST(MapIO, WrongVersion) {
     out.Write(raw.data(), raw.size());
   }
   const std::string msg = expectLoadError(bumped);
-  EXPECT_NE(msg.find("version 1"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("version 2"), std::string::npos) << msg;
 }
 
 namespace {
@@ -177,6 +187,29 @@ void compress(const std::string& raw, const fs::path& file) {
 }
 }  // namespace
 
+// Format 0 (before the vocabulary record) is still read: a version-1 file turned back into version 0 (version
+// byte 0, the empty vocabulary string removed) loads as the same map.
+TEST(MapIO, Version0FilesAreStillRead) {
+  const Map map = richMap();
+  ASSERT_TRUE(map.vocabulary().empty());
+  const fs::path file = tempDir() / "v1.slammap";
+  saveMap(map, file);
+  std::string raw = decompress(file);
+  const std::string name = CSlamMapArchive::className;
+  const std::size_t pos = raw.find(name);
+  ASSERT_NE(pos, std::string::npos);
+  ASSERT_EQ(std::uint8_t(raw[pos + name.size()]), 1u);
+  raw[pos + name.size()] = char(0);
+  // ... [vocabulary length u32 = 0]["SLME" u32][MRPT end flag u8]
+  ASSERT_EQ(raw.substr(raw.size() - 9, 4), std::string(4, '\0'));
+  raw.erase(raw.size() - 9, 4);
+  const fs::path v0 = tempDir() / "v0.slammap";
+  compress(raw, v0);
+  std::uint8_t version = 99;
+  EXPECT_TRUE(loadMap(v0, &version) == map);
+  EXPECT_EQ(version, 0u);
+}
+
 // Reliability (doc/reliability.md): a flag byte other than 0 / 1 is refused (it used to be read straight into
 // a bool: undefined behaviour).
 TEST(MapIO, FlagByteOtherThanZeroOrOneIsRefused) {
@@ -186,9 +219,10 @@ TEST(MapIO, FlagByteOtherThanZeroOrOneIsRefused) {
   const fs::path file = tempDir() / "flag.slammap";
   saveMap(map, file);
   std::string raw = decompress(file);
-  // The archive ends with the last point's [bad u8][firstKeyFrame u64][landmark count u64 = 0], the end marker
-  // "SLME" (u32) and MRPT's end-of-object flag (u8).
-  const std::size_t at = raw.size() - 22;
+  // The archive ends with the last point's [bad u8][firstKeyFrame u64][landmark count u64 = 0], the vocabulary
+  // record (an MRPT string: u32 length, here 0), the end marker "SLME" (u32) and MRPT's end-of-object flag (u8).
+  ASSERT_TRUE(map.vocabulary().empty());
+  const std::size_t at = raw.size() - 26;
   ASSERT_EQ(raw.substr(raw.size() - 5, 4), std::string("EMLS"));
   ASSERT_LE(std::uint8_t(raw[at]), 1u);
   raw[at] = char(0x42);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <limits>
@@ -320,6 +321,24 @@ void Vocabulary::transform(const cv::Mat& descriptors, BowVector& bow, FeatureVe
       features->nodes.back().second.push_back(f);
     }
   }
+}
+
+std::string Vocabulary::fingerprint() const {
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a 64
+  const auto mix = [&h](const void* data, std::size_t bytes) {
+    const auto* p = static_cast<const std::uint8_t*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  };
+  const std::int32_t shape[2] = {branching_, depth_};
+  mix(shape, sizeof shape);
+  mix(childBegin_.data(), childBegin_.size() * sizeof(std::uint32_t));
+  mix(childCount_.data(), childCount_.size());
+  mix(descriptors_.data(), descriptors_.size());
+  mix(weights_.data(), weights_.size() * sizeof(float));
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return "k " + std::to_string(branching_) + ", L " + std::to_string(depth_) + ", " + std::to_string(words_.size()) +
+         " words, fnv1a64 " + hex;
 }
 
 double Vocabulary::score(const BowVector& a, const BowVector& b) {

@@ -60,7 +60,13 @@ TEST(Vocabulary, TrainingIsDeterministicForASeedAndDependsOnIt) {
   EXPECT_TRUE(again == trained());
   VocabularyParams other = smallParams();
   other.seed = 4;
-  EXPECT_FALSE(Vocabulary::train(trainingSet().images, other) == trained());
+  const Vocabulary different = Vocabulary::train(trainingSet().images, other);
+  EXPECT_FALSE(different == trained());
+  // The fingerprint a saved map records: the same for equal vocabularies, another for another one.
+  EXPECT_EQ(again.fingerprint(), trained().fingerprint());
+  EXPECT_NE(different.fingerprint(), trained().fingerprint());
+  EXPECT_EQ(trained().fingerprint().rfind("k " + std::to_string(trained().branching()) + ", L ", 0), 0u)
+      << trained().fingerprint();
 }
 
 TEST(Vocabulary, AWordIsTheLeafReachedByNearestChildren) {
@@ -138,6 +144,7 @@ TEST(Vocabulary, SavesAndLoadsTheSameVocabulary) {
   v.save(path);
   const Vocabulary back = Vocabulary::load(path);
   EXPECT_TRUE(back == v);
+  EXPECT_EQ(back.fingerprint(), trained().fingerprint()) << "the provenance text is not part of the fingerprint";
   BowVector a, b;
   v.transform(trainingSet().images[5], a);
   back.transform(trainingSet().images[5], b);

@@ -353,6 +353,7 @@ System::System(SlamParams params, SystemOptions options)
   // The vocabulary is read before the first frame: a bad file fails the run at its start.
   if (!params_.places.vocabulary.empty())
     vocabulary_ = std::make_shared<const places::Vocabulary>(places::Vocabulary::load(params_.places.vocabulary));
+  if (vocabulary_) vocabularyFingerprint_ = vocabulary_->fingerprint();
   threaded_ = options_.threaded.value_or(params_.system.threaded);
   if (options_.camera) {
     options_.camera->check();
@@ -595,7 +596,10 @@ Trajectory System::keyFrameTrajectory() const {
 map::Map System::mapSnapshot() const {
   if (!impl_) return map::Map();
   std::lock_guard<std::mutex> mk(impl_->mapMutex);
-  return impl_->map;
+  map::Map snapshot = impl_->map;
+  // The map records the vocabulary of the run that builds it; a localization run leaves the loaded map as it was.
+  if (mappingEnabled_) snapshot.setVocabulary(vocabularyFingerprint_);
+  return snapshot;
 }
 
 void System::saveMap(const std::filesystem::path& path) const { map::saveMap(mapSnapshot(), path); }

@@ -33,6 +33,7 @@ struct MapInfo {
   std::uintmax_t fileBytes = 0;
   int formatVersion = 0;
   map::CameraIntrinsics camera;
+  std::string vocabulary;                   ///< fingerprint of the vocabulary the map was built with, or empty
   std::size_t keyFrames = 0, mapPoints = 0, badPoints = 0, observations = 0;
   double firstStamp = 0, lastStamp = 0;     ///< keyframe timestamps
   double keyFramePathLength = 0;            ///< along the keyframe centres in timestamp order (map units)

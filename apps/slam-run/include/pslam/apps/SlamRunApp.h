@@ -54,6 +54,9 @@ struct SlamRunSummary {
   std::size_t loadedKeyFrames = 0, loadedMapPoints = 0;
   std::size_t framesLocalized = 0;        ///< processed frames with a pose in the map
   long long firstLocalizedFrame = -1;     ///< index of the first of them (-1: none)
+  /// Non-empty when the loaded map records another vocabulary than this run's (it still works: the keyframes'
+  /// BoW vectors are recomputed with this run's, but place recognition is not what it was).
+  std::string vocabularyWarning;
   bool initialized() const { return initializedAtFrame >= 0; }
   /// Has the run produced a map to track in: initialized, or started from a loaded map.
   bool hasMap() const { return initialized() || mapLoaded; }

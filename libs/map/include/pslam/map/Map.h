@@ -133,6 +133,13 @@ class Map {
   /// violation (prefixed by `context`).
   void checkInvariants(const std::string& context = "map") const;
 
+  // ---- the bag-of-words vocabulary the map was built with (serialized; informational) ----
+  /// places::Vocabulary::fingerprint() of the vocabulary of the run that built the map, empty when it had none.
+  /// Keyframes' BoW vectors are not stored: a run recomputes them with its own vocabulary, so another one works
+  /// too, but its place-recognition results differ (the System warns).
+  const std::string& vocabulary() const { return vocabulary_; }
+  void setVocabulary(std::string fingerprint) { vocabulary_ = std::move(fingerprint); }
+
   // ---- counters for ids (serialized) ----
   KeyFrameId nextKeyFrameId() const { return nextKeyFrameId_; }
   MapPointId nextMapPointId() const { return nextMapPointId_; }
@@ -157,6 +164,7 @@ class Map {
   std::map<KeyFrameId, ErasedKeyFrame> erased_;  ///< see keyFramePoseIncludingErased
   KeyFrameId nextKeyFrameId_ = 0;
   MapPointId nextMapPointId_ = 0;
+  std::string vocabulary_;
 };
 
 /// Exact equality of two keyframes / points (all fields, descriptors byte-wise).

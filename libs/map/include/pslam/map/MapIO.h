@@ -16,10 +16,13 @@ namespace pslam::map {
 class CSlamMapArchive : public mrpt::serialization::CSerializable {
   DEFINE_SERIALIZABLE(CSlamMapArchive, pslam::map)
  public:
-  static constexpr std::uint8_t kFormatVersion = 0;
+  /// 1 adds the vocabulary fingerprint (Map::vocabulary) after the points; version 0 files are still read.
+  static constexpr std::uint8_t kFormatVersion = 1;
   Map map;
   /// Why the last serializeFrom() failed (MRPT replaces the message of exceptions thrown inside it).
   std::string readFailure;
+  /// The format version of the last object read (serializeFrom).
+  std::uint8_t readVersion = kFormatVersion;
 
  private:
   void readContent(mrpt::serialization::CArchive& in, std::uint8_t version);
@@ -34,6 +37,7 @@ void saveMap(const Map& map, const std::filesystem::path& path);
 /// version, or its content is invalid: every count, id, flag and index is checked (flags are 0 or 1, ids below
 /// the map's next ids, keypoints within one image size around their keyframe's image, values finite) and the
 /// whole map must satisfy the map invariants.
-Map loadMap(const std::filesystem::path& path);
+/// `formatVersion` (optional) receives the file's format version.
+Map loadMap(const std::filesystem::path& path, std::uint8_t* formatVersion = nullptr);
 
 }  // namespace pslam::map

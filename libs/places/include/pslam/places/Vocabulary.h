@@ -51,6 +51,9 @@ class Vocabulary {
   std::size_t numWords() const { return words_.size(); }
   std::size_t numNodes() const { return childBegin_.size(); }
   const VocabularyProvenance& provenance() const { return provenance_; }
+  /// Identifies the vocabulary in a saved map: "k 16, L 4, 65228 words, fnv1a64 <16 hex digits>", the hash over
+  /// the tree, the node descriptors and the word weights (not the provenance text).
+  std::string fingerprint() const;
   void setProvenance(VocabularyProvenance p) { provenance_ = std::move(p); }
 
   /// The word of one descriptor: descends from the root to a leaf by the nearest child (Hamming; ties: the

@@ -94,6 +94,9 @@ class System {
   /// is not changed by tracking; true (default) = full SLAM.
   void setMappingEnabled(bool enabled);
   bool mappingEnabled() const { return mappingEnabled_; }
+  /// places::Vocabulary::fingerprint() of [Places] vocabulary, empty without one. With mapping on, saved maps
+  /// and mapSnapshot() record it (map::Map::vocabulary); in localization mode the loaded map keeps its record.
+  const std::string& vocabularyFingerprint() const { return vocabularyFingerprint_; }
 
   /// Discards the map and the trajectory; the next frames initialize a new map.
   void reset();
@@ -133,6 +136,7 @@ class System {
   bool mappingEnabled_ = true;
   std::optional<geometry::PinholeCamera> camera_;
   std::shared_ptr<const places::Vocabulary> vocabulary_;  ///< [Places] vocabulary, loaded by the constructor
+  std::string vocabularyFingerprint_;
   std::unique_ptr<Impl> impl_;
 };
 
