@@ -176,7 +176,8 @@ std::string MapInfo::toText() const {
   os << "map:          " << file.string() << " (" << fileBytes << " bytes, format version " << formatVersion << ")\n";
   os << "camera:       fx " << camera.fx << ", fy " << camera.fy << ", cx " << camera.cx << ", cy " << camera.cy
      << ", " << camera.width << "x" << camera.height << "\n";
-  os << "vocabulary:   " << (vocabulary.empty() ? std::string("none recorded (built without one)") : vocabulary) << "\n";
+  os << "vocabulary:   " << (vocabulary.empty() ? std::string("none recorded (built without one)") : vocabulary)
+     << "\n";
   os << "lines:        not stored (line landmarks live only in the run)\n";
   os << "keyframes:    " << keyFrames;
   if (keyFrames > 0)

@@ -42,7 +42,8 @@ int ransacIterationBudget(const PnpParams& params, std::size_t correspondences, 
   // fail (relocalization against keyframes that only look alike) no longer cost the full budget each.
   const double epsilon = static_cast<double>(params.minInliers) / static_cast<double>(correspondences);
   if (epsilon >= 1.0) return 1;
-  const double iterations = std::ceil(std::log(1.0 - params.confidence) / std::log(1.0 - std::pow(epsilon, sampleSize)));
+  const double iterations =
+      std::ceil(std::log(1.0 - params.confidence) / std::log(1.0 - std::pow(epsilon, sampleSize)));
   return static_cast<int>(std::clamp(iterations, 1.0, static_cast<double>(params.ransacIterations)));
 }
 

@@ -302,7 +302,8 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
   if (version >= 1) {
     std::string vocabulary;
     in >> vocabulary;
-    if (vocabulary.size() > 4096) throw Error("vocabulary fingerprint of " + std::to_string(vocabulary.size()) + " bytes");
+    if (vocabulary.size() > 4096)
+      throw Error("vocabulary fingerprint of " + std::to_string(vocabulary.size()) + " bytes");
     m.setVocabulary(std::move(vocabulary));
   }
   std::uint32_t sentinel = 0;

@@ -866,7 +866,8 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
     }
     if (mapUpdates_ && map_.numKeyFrames() <= static_cast<std::size_t>(params_.resetKeyFrames)) {
       // ORB-SLAM: a map this young is not worth relocalizing into; start over.
-      rep.message = (rep.message.empty() ? "" : rep.message + "; ") + "lost with " + std::to_string(map_.numKeyFrames()) + " keyframes: map reset";
+      rep.message = (rep.message.empty() ? "" : rep.message + "; ") + "lost with " +
+                    std::to_string(map_.numKeyFrames()) + " keyframes: map reset";
       reset();
       res.mapWasReset = true;
     }
