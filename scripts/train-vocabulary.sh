@@ -1,17 +1,19 @@
 #!/usr/bin/env bash
-# Trains the bag-of-words vocabulary shipped as config/places/orb_k16_l4.pvoc (doc/places.md). Maintainer step:
-# CI and the README never train, they use the shipped file.
+# Trains the bag-of-words vocabulary of doc/places.md into out/places/orb_k16_l4.pvoc (2.2 MB: generated data, kept
+# out of the repository; no shipped config names it). Use it with
+#   slam-run ... --set Places.vocabulary=$PWD/out/places/orb_k16_l4.pvoc --set Places.directIndexLevelsUp=2 \
+#                --set LoopClosing.enabled=true
 #
 # Data: the real recordings of ../shared/data (KITTI 00: 200 frames, TUM fr3_cabinet every 20th: 58) and synthetic
 # scenes of a seed the evaluations do not use (room, corridor, street, jam; seed 11, 150 frames each).
 # ORB: the extractor defaults (2000 features, 8 levels, 1.2), as config/slam/kitti.ini; k = 16, L = 4, seed 0 (65 228 words, 2.2 MB).
-# Environment: BUILD_DIR (build), WORK_DIR (/tmp/vocab-train), OUT (config/places/orb_k16_l4.pvoc).
+# Environment: BUILD_DIR (build), WORK_DIR (/tmp/vocab-train), OUT (out/places/orb_k16_l4.pvoc).
 # Takes a few minutes on 2 cores (most of it rendering).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
 WORK_DIR=${WORK_DIR:-/tmp/vocab-train}
-OUT=${OUT:-config/places/orb_k16_l4.pvoc}
+OUT=${OUT:-out/places/orb_k16_l4.pvoc}
 DATA=../shared/data
 B="$BUILD_DIR/bin"
 for tool in dataset2rawlog slam-synth vocab-train; do
@@ -24,7 +26,7 @@ if [[ ! -d "$DATA/kitti_odometry/sequences/00" || ! -d "$DATA/tum_rgbd/rgbd_data
   echo "train-vocabulary.sh: $DATA (KITTI 00, TUM fr3_cabinet) not found" >&2
   exit 1
 fi
-mkdir -p "$WORK_DIR"
+mkdir -p "$WORK_DIR" "$(dirname "$OUT")"
 "$B/dataset2rawlog" "$DATA/kitti_odometry/sequences/00" -o "$WORK_DIR/kitti" --camera-ini config/cameras/kitti_00-02.ini -q
 "$B/dataset2rawlog" "$DATA/tum_rgbd/rgbd_dataset_freiburg3_cabinet_every20th" -o "$WORK_DIR/tum" --name cabinet \
   --format tum --tum-camera fr3 -q
