@@ -10,6 +10,7 @@
 #include <mrpt/io/CFileGZOutputStream.h>
 
 #include "pslam/core/Error.h"
+#include "pslam/datasets/PrefetchingRawlogReader.h"
 #include "pslam/datasets/Rawlog.h"
 
 namespace fs = std::filesystem;
@@ -251,4 +252,104 @@ TEST(Rawlog, ArchiveCutInsideAnObjectIsCorruptAtAFrame) {
   const std::string msg = readAllFramesError(d / "cut.rawlog");
   EXPECT_EQ(msg.rfind((d / "cut.rawlog").string() + ": corrupt rawlog at object 2 (after 2 frames): ", 0), 0u) << msg;
   EXPECT_EQ(countFramesError(d / "cut.rawlog"), msg);
+}
+
+// The prefetching reader (slam-run's input): the same frames in the same order as RawlogReader, whatever the
+// capacity, and a read error only after every frame before it.
+TEST(PrefetchingRawlogReader, GivesExactlyTheFramesOfTheReader) {
+  const fs::path d = tempDir("prefetch");
+  {
+    RawlogWriter w(d / "seq.rawlog");
+    for (int i = 0; i < 7; ++i) w.write(makeFrame(i, i % 3 == 0, i % 2 == 0));
+    w.commit();
+  }
+  std::vector<Frame> expected;
+  {
+    RawlogReader r(d / "seq.rawlog");
+    for (Frame f; r.next(f);) expected.push_back(f);
+  }
+  ASSERT_EQ(expected.size(), 7u);
+  for (std::size_t capacity : {1u, 3u, 10u}) {
+    SCOPED_TRACE(capacity);
+    PrefetchingRawlogReader r(d / "seq.rawlog", capacity);
+    Frame f;
+    for (const Frame& e : expected) {
+      ASSERT_TRUE(r.next(f));
+      EXPECT_EQ(f.index, e.index);
+      EXPECT_EQ(f.timestamp, e.timestamp);
+      EXPECT_TRUE(equalMats(f.image, e.image));
+      EXPECT_EQ(f.hasDepth(), e.hasDepth());
+      if (e.hasDepth()) {
+        EXPECT_TRUE(equalMats(f.depth, e.depth));
+        EXPECT_TRUE(equalMats(f.semantic, e.semantic));
+        EXPECT_TRUE(equalMats(f.normals, e.normals));
+      }
+    }
+    EXPECT_FALSE(r.next(f));
+    EXPECT_FALSE(r.next(f));  // stays at the end
+  }
+}
+
+TEST(PrefetchingRawlogReader, ThrowsTheReadErrorAfterTheFramesBeforeIt) {
+  const fs::path d = tempDir("prefetch_cut");
+  {
+    RawlogWriter w(d / "seq.rawlog");
+    for (int i = 0; i < 3; ++i) w.write(makeFrame(i, false, false));
+    w.commit();
+  }
+  std::string raw;
+  {
+    mrpt::io::CFileGZInputStream in((d / "seq.rawlog").string());
+    char buf[4096];
+    for (std::size_t n = 0; (n = in.Read(buf, sizeof buf)) > 0;) raw.append(buf, n);
+  }
+  {
+    mrpt::io::CFileGZOutputStream out((d / "cut.rawlog").string());
+    out.Write(raw.data(), raw.size() - 10);
+  }
+  fs::copy(d / "seq_Images", d / "cut_Images", fs::copy_options::recursive);
+  // The frames RawlogReader gives before its error (it reads one object ahead to end a frame).
+  std::size_t before = 0;
+  {
+    RawlogReader plain(d / "cut.rawlog");
+    Frame f;
+    try {
+      while (plain.next(f)) ++before;
+    } catch (const Error&) {
+    }
+  }
+  ASSERT_GE(before, 1u);
+  PrefetchingRawlogReader r(d / "cut.rawlog", 4);
+  Frame f;
+  for (std::size_t i = 0; i < before; ++i) {
+    ASSERT_TRUE(r.next(f));
+    EXPECT_EQ(f.index, i);
+  }
+  std::string msg;
+  try {
+    r.next(f);
+  } catch (const Error& e) {
+    msg = e.what();
+  }
+  EXPECT_EQ(msg, readAllFramesError(d / "cut.rawlog"));
+  EXPECT_EQ(msg.rfind((d / "cut.rawlog").string() + ": corrupt rawlog at object 2 (after 2 frames): ", 0), 0u) << msg;
+}
+
+TEST(PrefetchingRawlogReader, StopsWhileFramesAreReadAhead) {
+  const fs::path d = tempDir("prefetch_stop");
+  {
+    RawlogWriter w(d / "seq.rawlog");
+    for (int i = 0; i < 6; ++i) w.write(makeFrame(i, false, true));
+    w.commit();
+  }
+  {
+    PrefetchingRawlogReader r(d / "seq.rawlog", 2);
+    Frame f;
+    ASSERT_TRUE(r.next(f));
+    r.stop();  // the thread waits on a full queue: stop() must wake it
+    EXPECT_FALSE(r.next(f));
+  }
+  { PrefetchingRawlogReader unread(d / "seq.rawlog", 1); }  // destroyed without a single next(): no hang
+  EXPECT_THROW(PrefetchingRawlogReader(d / "missing.rawlog"), Error);
+  EXPECT_THROW(PrefetchingRawlogReader(d / "seq.rawlog", 0), Error);
 }
