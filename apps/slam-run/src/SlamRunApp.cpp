@@ -11,6 +11,7 @@
 #include "pslam/core/Progress.h"
 #include "pslam/core/Trajectory.h"
 #include "pslam/eval/Plot.h"
+#include "pslam/datasets/PrefetchingRawlogReader.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/core/AtomicFile.h"
 #include "pslam/map/MapIO.h"
@@ -164,7 +165,6 @@ SlamRunSummary SlamRunApp::run() {
 
   const std::size_t total = datasets::RawlogReader::countFrames(options_.rawlog);
   require(total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
-  datasets::RawlogReader reader(options_.rawlog);
 
   // A map to start from is read and checked before any frame (errors name the file).
   std::optional<map::Map> loaded;
@@ -191,6 +191,27 @@ SlamRunSummary SlamRunApp::run() {
                                                                    : "'" + slam->vocabularyFingerprint() + "'") +
                             ": keyframes are indexed with this run's, place recognition may differ";
 
+  if (loaded) {
+    // The map's camera must be the rawlog's (the map stores undistorted intrinsics; the run keeps the rawlog's
+    // distortion model). Checked on the rawlog's first frame, and the System made with that camera, before the
+    // frames are read ahead (no MRPT deserialization runs next to the reading thread).
+    datasets::RawlogReader firstReader(options_.rawlog);
+    datasets::Frame first;
+    require(firstReader.next(first), options_.rawlog.string(), "rawlog has no CAMERA frame");
+    const geometry::PinholeCamera cam = cameraOfFrame(first, options_.rawlog);
+    const map::CameraIntrinsics mapCamera = loaded->keyFrames().begin()->second.camera;
+    require(tracking::toIntrinsics(cam) == mapCamera, options_.mapIn.string(),
+            "map camera (" + describe(mapCamera) + ") differs from the camera of " + options_.rawlog.string() +
+                " (" + describe(tracking::toIntrinsics(cam)) + ")");
+    so.camera = cam;
+    slam.emplace(params, so);
+    slam->setMappingEnabled(!options_.localization);
+    slam->setMap(std::move(*loaded), options_.mapIn.string());
+    loaded.reset();
+  }
+  // Frames are read and decoded a few ahead, in a thread of their own, while the current one is tracked.
+  datasets::PrefetchingRawlogReader reader(options_.rawlog);
+
   const std::size_t lastIndex = options_.last < 0 ? total - 1 : std::min<std::size_t>(options_.last, total - 1);
   const std::size_t toProcess = options_.first <= lastIndex ? lastIndex - options_.first + 1 : 0;
   Progress progress("slam-run", toProcess, options_.progress);
@@ -204,20 +225,6 @@ SlamRunSummary SlamRunApp::run() {
     ++sum.framesRead;
     if (input.index < options_.first) continue;
     if (input.index > lastIndex) break;
-    if (loaded) {
-      // The map's camera must be the rawlog's (the map stores undistorted intrinsics; the run keeps the
-      // rawlog's distortion model).
-      const geometry::PinholeCamera cam = cameraOfFrame(input, options_.rawlog);
-      const map::CameraIntrinsics mapCamera = loaded->keyFrames().begin()->second.camera;
-      require(tracking::toIntrinsics(cam) == mapCamera, options_.mapIn.string(),
-              "map camera (" + describe(mapCamera) + ") differs from the camera of " + options_.rawlog.string() +
-                  " (" + describe(tracking::toIntrinsics(cam)) + ")");
-      so.camera = cam;
-      slam.emplace(params, so);
-      slam->setMappingEnabled(!options_.localization);
-      slam->setMap(std::move(*loaded), options_.mapIn.string());
-      loaded.reset();
-    }
     if (options_.realtime) {
       // The camera's clock: frame t is due at start + (t - t_first); waiting for it leaves the mapping thread
       // the time between frames, as live.
@@ -251,6 +258,7 @@ SlamRunSummary SlamRunApp::run() {
                                              std::to_string(r.report.keyFrames) + " pts " +
                                              std::to_string(r.report.mapPoints));
   }
+  reader.stop();  // before the outputs: saving the map serializes with MRPT too
   for (std::size_t k = 0; k < localized.size(); ++k) {
     if (!localized[k]) continue;
     ++sum.framesLocalized;
