@@ -448,18 +448,28 @@ TrackResult System::track(const datasets::Frame& input) {
         // The frame is tracked once the last keyframe's new points are in the map (its triangulation and fusion
         // done): this frame's extraction overlaps with them, tracking with that keyframe's local BA and culling;
         // a keyframe may be made whenever none waits for the mapping thread.
-        s.queueCv.wait(lk, [&] { return s.pointsReadySeq >= s.queuedSeq; });
+        {
+          ScopedStage wait(s.trackingTimings, "wait_for_mapping_queue");
+          s.queueCv.wait(lk, [&] { return s.pointsReadySeq >= s.queuedSeq; });
+        }
         s.tracker->setLocalMappingIdle(s.queue.empty());
       } else {
         // live (ORB-SLAM's): tracking goes on while a keyframe is mapped and makes a keyframe only when the mapping
         // thread is idle (AcceptKeyFrames) or maxFrames have passed; a keyframe made meanwhile waits until the
         // mapping thread takes it, so tracking is never more than one keyframe ahead.
-        s.queueCv.wait(lk, [&] { return s.queue.empty(); });
+        {
+          ScopedStage wait(s.trackingTimings, "wait_for_mapping_queue");
+          s.queueCv.wait(lk, [&] { return s.queue.empty(); });
+        }
         s.tracker->setLocalMappingIdle(!s.busy);
       }
     }
     std::unique_lock<std::mutex> mk(s.mapMutex, std::defer_lock);
-    if (s.threaded) mk.lock();
+    if (s.threaded) {
+      // How long tracking waits while the mapping thread holds the map (doc/performance.md).
+      ScopedStage wait(s.trackingTimings, "wait_for_map_lock");
+      mk.lock();
+    }
     const cv::Mat grey = frame.grey, semantic = frame.semantic;
     if (s.lineFrontEnd && s.tracker->initialized()) {  // ---- line segments: LSD + LBD of the frame
       ScopedStage st(s.trackingTimings, "line_extraction");
@@ -522,6 +532,15 @@ TrackResult System::track(const datasets::Frame& input) {
       }
       s.queueCv.notify_all();
     }
+  }
+
+  // Threaded: the frame needed a keyframe that mapping was too busy to take, and tracks too few of the reference
+  // keyframe's points to go on without one ([KeyFrames] waitRatio): the next frame waits until mapping is idle,
+  // so it can make that keyframe (its BA was asked to stop above).
+  if (s.threaded && res.keyFrameUrgent && s.mappingEnabled) {
+    ScopedStage wait(s.trackingTimings, "wait_for_mapping_urgent");
+    std::unique_lock<std::mutex> lk(s.queueMutex);
+    s.queueCv.wait(lk, [&] { return s.queue.empty() && !s.busy; });
   }
 
   // Bookkeeping of the trajectory and the counters (under the map lock when threaded: the getters take it).

@@ -937,6 +937,8 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   } else if (mapUpdates_ && !kin.localMappingIdle) {
     kin.localMappingIdle = true;
     res.keyFrameWaitsForMapping = needNewKeyFrame(kin, params_.keyFrames);
+    res.keyFrameUrgent = res.keyFrameWaitsForMapping &&
+                         kin.trackedInliers < params_.keyFrames.waitRatio * kin.referenceTrackedPoints;
   }
   res.hasPose = true;
   res.T_cam_world = frame.T_cam_world;

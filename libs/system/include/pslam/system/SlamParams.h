@@ -31,9 +31,10 @@ namespace pslam::system {
 /// [System]: how the run is put together. The names are validated by the factories that build the parts.
 struct SystemParams {
   bool threaded = false;
-  /// Threaded mode, how tracking waits for local mapping: "live" (ORB-SLAM's: keyframes only when mapping is
-  /// idle; tracking never more than one keyframe ahead) or "afterNewPoints" (each frame after a keyframe waits
-  /// for that keyframe's triangulation and fusion; its local BA overlaps). doc/performance.md compares them.
+  /// Threaded mode, how tracking waits for local mapping: "live" (ORB-SLAM's: keyframes when mapping is idle or
+  /// after maxFrames; tracking never more than one keyframe ahead; [Tracking] keyFrames.waitRatio says when a
+  /// needed keyframe makes it wait) or "afterNewPoints" (each frame after a keyframe waits for that keyframe's
+  /// triangulation and fusion; its local BA overlaps). doc/performance.md compares them.
   std::string threadedTracking = "live";
   std::string poseSolver = "full6dof";
   std::string initializer = "twoView";
@@ -43,7 +44,8 @@ struct SystemParams {
     using namespace pslam::params;
     PSLAM_FIELD(v, threaded, anyValue, "local mapping in a second thread (live use); false = deterministic");
     PSLAM_FIELD(v, threadedTracking, oneOf({"live", "afterNewPoints"}),
-                "threaded: live (keyframes when mapping is idle) | afterNewPoints (wait for each keyframe's points)");
+                "threaded: live (keyframes when mapping is idle or after maxFrames) | afterNewPoints (wait for each "
+                "keyframe's points)");
     PSLAM_FIELD(v, poseSolver, nonEmpty, "tracking pose solver (full6dof = motion-only BA)");
     PSLAM_FIELD(v, initializer, nonEmpty,
                 "map initializer (twoView = H/F two-view initialization; manhattan = §4.4.1, H/F without a Manhattan frame)");

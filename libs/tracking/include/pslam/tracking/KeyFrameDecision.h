@@ -27,6 +27,13 @@ struct KeyFrameDecisionParams {
   double refRatio = 0.9;
   int minInliers = 15;
   double directRatio = 0.5;
+  /// Threaded mode: a frame that needs a keyframe local mapping cannot take yet, and tracks fewer than this share
+  /// of its reference keyframe's points, makes tracking wait until mapping is idle (its BA is asked to stop) so
+  /// the next frame makes the keyframe. 1 (default): whenever a needed keyframe waits; 0: never (ORB-SLAM2 skips
+  /// the keyframe). A map that falls behind the camera loses it: KITTI 00 unpaced with frames read ahead was lost
+  /// at frame 23-35 in 7 of 10 runs with 0 or 0.5, 0.8 kept it but with ATE up to 4 m (doc/performance.md).
+  /// The sequential mode never waits (mapping is done before the next frame).
+  double waitRatio = 1.0;
 
   template <class V>
   void visitFields(V& v) {
@@ -38,6 +45,9 @@ struct KeyFrameDecisionParams {
     PSLAM_FIELD(v, minInliers, atLeast(0), "the frame must still track more than this");
     PSLAM_FIELD(v, directRatio, inClosed(0, 1),
                 "direct points: a keyframe when the frame sees fewer than this share of the reference's active ones");
+    PSLAM_FIELD(v, waitRatio, inClosed(0, 1),
+                "threaded: wait for mapping when a needed keyframe waits and the frame tracks fewer than this share "
+                "of the reference keyframe's points (0 = never)");
   }
 };
 

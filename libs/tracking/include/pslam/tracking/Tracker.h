@@ -187,6 +187,9 @@ class Tracker {
     /// The frame needed a keyframe but local mapping was busy (setLocalMappingIdle(false)), so none was made:
     /// ORB-SLAM then interrupts local BA so that mapping takes the next one sooner.
     bool keyFrameWaitsForMapping = false;
+    /// ... and the frame tracks fewer than keyFrames.waitRatio of the reference keyframe's points: the map falls
+    /// behind the camera, tracking should wait for mapping before the next frame.
+    bool keyFrameUrgent = false;
     /// The reference frame of a successful initialization (gets a pose retroactively), else nullopt.
     std::optional<std::pair<double, Eigen::Isometry3d>> initialReferencePose;
     /// > 0: this frame was lost within relocalizationCheckFrames of a relocalization, so that relocalization
