@@ -228,10 +228,9 @@ TEST(Rawlog, CorruptGzipIsReportedNotReadAsAShorterRawlog) {
   }
 }
 
-// Reliability: a valid gzip stream whose archive is cut inside an object (e.g. written by a broken tool) is
-// corrupt at a named object and frame, not the end of the rawlog.
-TEST(Rawlog, ArchiveCutInsideAnObjectIsCorruptAtAFrame) {
-  const fs::path d = tempDir("cut_archive");
+namespace {
+/// d/cut.rawlog (+ cut_Images): a valid gzip stream holding 3 frames' archive without its last 10 bytes.
+void writeRawlogCutInsideItsLastObject(const fs::path& d) {
   {
     RawlogWriter w(d / "seq.rawlog");
     for (int i = 0; i < 3; ++i) w.write(makeFrame(i, false, false));
@@ -249,6 +248,14 @@ TEST(Rawlog, ArchiveCutInsideAnObjectIsCorruptAtAFrame) {
     out.Write(raw.data(), raw.size() - 10);
   }
   fs::copy(d / "seq_Images", d / "cut_Images", fs::copy_options::recursive);
+}
+}  // namespace
+
+// Reliability: a valid gzip stream whose archive is cut inside an object (e.g. written by a broken tool) is
+// corrupt at a named object and frame, not the end of the rawlog.
+TEST(Rawlog, ArchiveCutInsideAnObjectIsCorruptAtAFrame) {
+  const fs::path d = tempDir("cut_archive");
+  writeRawlogCutInsideItsLastObject(d);
   const std::string msg = readAllFramesError(d / "cut.rawlog");
   EXPECT_EQ(msg.rfind((d / "cut.rawlog").string() + ": corrupt rawlog at object 2 (after 2 frames): ", 0), 0u) << msg;
   EXPECT_EQ(countFramesError(d / "cut.rawlog"), msg);
@@ -292,22 +299,7 @@ TEST(PrefetchingRawlogReader, GivesExactlyTheFramesOfTheReader) {
 
 TEST(PrefetchingRawlogReader, ThrowsTheReadErrorAfterTheFramesBeforeIt) {
   const fs::path d = tempDir("prefetch_cut");
-  {
-    RawlogWriter w(d / "seq.rawlog");
-    for (int i = 0; i < 3; ++i) w.write(makeFrame(i, false, false));
-    w.commit();
-  }
-  std::string raw;
-  {
-    mrpt::io::CFileGZInputStream in((d / "seq.rawlog").string());
-    char buf[4096];
-    for (std::size_t n = 0; (n = in.Read(buf, sizeof buf)) > 0;) raw.append(buf, n);
-  }
-  {
-    mrpt::io::CFileGZOutputStream out((d / "cut.rawlog").string());
-    out.Write(raw.data(), raw.size() - 10);
-  }
-  fs::copy(d / "seq_Images", d / "cut_Images", fs::copy_options::recursive);
+  writeRawlogCutInsideItsLastObject(d);
   // The frames RawlogReader gives before its error (it reads one object ahead to end a frame).
   std::size_t before = 0;
   {
