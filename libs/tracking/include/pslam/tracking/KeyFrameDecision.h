@@ -31,7 +31,7 @@ struct KeyFrameDecisionParams {
   /// of its reference keyframe's points, makes tracking wait until mapping is idle (its BA is asked to stop) so
   /// the next frame makes the keyframe. 1 (default): whenever a needed keyframe waits; 0: never (ORB-SLAM2 skips
   /// the keyframe). A map that falls behind the camera loses it: KITTI 00 unpaced with frames read ahead was lost
-  /// at frame 23-35 in 7 of 10 runs with 0 or 0.5, 0.8 kept it but with ATE up to 4 m (doc/performance.md).
+  /// within 35-120 frames in 8 of 11 runs with 0 or 0.5; 0.8 kept it, with ATE up to 4 m (doc/performance.md).
   /// The sequential mode never waits (mapping is done before the next frame).
   double waitRatio = 1.0;
 
