@@ -7,8 +7,9 @@
 #                                           # with all their unit tests and the rawlog / map fuzz tests
 #   bash scripts/run-sanitizers.sh --all    # every unit and e2e test (the whole pipeline; ~25 min on 2 cores)
 #   bash scripts/run-sanitizers.sh --thread # ThreadSanitizer build of the e2e tests, running the threaded-mode
-#                                           # tests (tracking and local mapping in two threads), and the
+#                                           # tests (tracking and local mapping in two threads), the
 #                                           # local-mapping unit tests (its computations outside the map lock)
+#                                           # and the prefetching rawlog reader's tests
 # Env: SANITIZE_BUILD_DIR (default build-sanitize), SANITIZE_JOBS (default 2); ccache is used when installed.
 # Called by .ci/run after scripts/run-tests.sh, which has installed the dependencies.
 set -euo pipefail
@@ -18,7 +19,7 @@ case "${1:-}" in
   "") ;;
   --all) SCOPE=all ;;
   --thread) SCOPE=thread ;;
-  -h|--help) sed -n 2,13p "$0"; exit 0 ;;
+  -h|--help) sed -n 2,14p "$0"; exit 0 ;;
   *) echo "run-sanitizers: unknown argument '$1' (see --help)" >&2; exit 2 ;;
 esac
 BUILD_DIR=${SANITIZE_BUILD_DIR:-build-sanitize}
@@ -36,7 +37,7 @@ if [[ $SCOPE == thread ]]; then
   cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Tsan -DCMAKE_CXX_FLAGS_TSAN="$FLAGS" \
     -DCMAKE_EXE_LINKER_FLAGS_TSAN=-fsanitize=thread -DCMAKE_SHARED_LINKER_FLAGS_TSAN=-fsanitize=thread \
     -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
-  cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper
+  cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper test_rawlog
   built=$(date +%s)
   export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}
   export OPENCV_FOR_THREADS_NUM=1
@@ -47,6 +48,8 @@ if [[ $SCOPE == thread ]]; then
   # GTEST_FILTER: only the threaded-mode tests of the e2e binary (the others are single-threaded).
   GTEST_FILTER='*Threaded*' ctest --test-dir "$BUILD_DIR" -R '^test_slam_e2e$' --output-on-failure
   ctest --test-dir "$BUILD_DIR" -R '^test_local_mapper$' --output-on-failure
+  # slam-run's frames read ahead in a thread of their own (datasets::PrefetchingRawlogReader).
+  GTEST_FILTER='PrefetchingRawlogReader.*' ctest --test-dir "$BUILD_DIR" -R '^test_rawlog$' --output-on-failure
   done_=$(date +%s)
   echo "run-sanitizers (thread): build $((built - start)) s, tests $((done_ - built)) s"
   exit 0
