@@ -535,12 +535,11 @@ TrackResult System::track(const datasets::Frame& input) {
   }
 
   // Threaded: the frame needed a keyframe that mapping was too busy to take, and tracks too few of the reference
-  // keyframe's points to go on without one ([KeyFrames] waitRatio): the next frame waits until mapping is idle,
-  // so it can make that keyframe (its BA was asked to stop above).
+  // keyframe's points to go on without one ([Tracking] keyFrames.waitRatio): tracking waits here until mapping is
+  // idle, so the next frame can make that keyframe (its BA was asked to stop above).
   if (s.threaded && res.keyFrameUrgent && s.mappingEnabled) {
     ScopedStage wait(s.trackingTimings, "wait_for_mapping_urgent");
-    std::unique_lock<std::mutex> lk(s.queueMutex);
-    s.queueCv.wait(lk, [&] { return s.queue.empty() && !s.busy; });
+    s.waitForMapping();
   }
 
   // Bookkeeping of the trajectory and the counters (under the map lock when threaded: the getters take it).
