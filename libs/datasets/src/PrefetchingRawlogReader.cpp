@@ -51,7 +51,7 @@ bool PrefetchingRawlogReader::next(Frame& frame) {
     changed_.notify_all();
     return true;
   }
-  if (error_) std::rethrow_exception(error_);
+  if (error_ && !stopping_) std::rethrow_exception(error_);  // after stop() the frames read ahead do not count
   return false;
 }
 

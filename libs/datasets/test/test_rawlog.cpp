@@ -325,6 +325,11 @@ TEST(PrefetchingRawlogReader, ThrowsTheReadErrorAfterTheFramesBeforeIt) {
   }
   EXPECT_EQ(msg, readAllFramesError(d / "cut.rawlog"));
   EXPECT_EQ(msg.rfind((d / "cut.rawlog").string() + ": corrupt rawlog at object 2 (after 2 frames): ", 0), 0u) << msg;
+  // A caller that stops before the broken frame (slam-run's --last) never sees the error.
+  PrefetchingRawlogReader early(d / "cut.rawlog", 4);
+  ASSERT_TRUE(early.next(f));
+  early.stop();
+  EXPECT_FALSE(early.next(f));
 }
 
 TEST(PrefetchingRawlogReader, StopsWhileFramesAreReadAhead) {
