@@ -4,6 +4,7 @@
 #include <ceres/rotation.h>
 
 #include "pslam/core/Error.h"
+#include "pslam/optimize/AnalyticJacobians.h"
 #include "pslam/optimize/PoseParameterization.h"
 
 namespace pslam::optimize {
@@ -29,15 +30,46 @@ struct RotationPriorCost {
   }
 };
 
+void requireRotationMeasurement(const char* who, const Eigen::Matrix3d& R, double sigmaRad) {
+  require(sigmaRad > 0.0 && std::isfinite(sigmaRad), who, "sigma must be a positive number");
+  require(R.allFinite() && (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < 1e-6 && R.determinant() > 0.0,
+          who, "the measurement is not a rotation matrix");
+}
+
+/// J_l^-1(phi) of SO(3): Log(exp(omega) exp(phi)) = phi + J_l^-1(phi) omega + O(|omega|^2).
+Eigen::Matrix3d inverseLeftJacobianSO3(const Eigen::Vector3d& phi) {
+  const double theta = phi.norm();
+  const Eigen::Matrix3d W = detail::skew(phi);
+  if (theta < 1e-6) return Eigen::Matrix3d::Identity() - 0.5 * W + W * W / 12.0;
+  const double c = 1.0 / (theta * theta) - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta));
+  return Eigen::Matrix3d::Identity() - 0.5 * W + c * W * W;
+}
+
 }  // namespace
 
 RotationPriorFactor::RotationPriorFactor(map::KeyFrameId keyframe, const Eigen::Matrix3d& R_cam_world, double sigmaRad)
     : keyframe_(keyframe), invSigma_(1.0 / sigmaRad) {
-  require(sigmaRad > 0.0 && std::isfinite(sigmaRad), "RotationPriorFactor", "sigma must be a positive number");
-  require(R_cam_world.allFinite() && (R_cam_world.transpose() * R_cam_world - Eigen::Matrix3d::Identity()).norm() < 1e-6 &&
-              R_cam_world.determinant() > 0.0,
-          "RotationPriorFactor", "the measurement is not a rotation matrix");
+  requireRotationMeasurement("RotationPriorFactor", R_cam_world, sigmaRad);
   q_meas_ = Eigen::Quaterniond(R_cam_world).normalized();
+}
+
+RotationPosePriorFactor::RotationPosePriorFactor(const Eigen::Matrix3d& R_cam_world, double sigmaRad)
+    : invSigma_(1.0 / sigmaRad) {
+  requireRotationMeasurement("RotationPosePriorFactor", R_cam_world, sigmaRad);
+  // Re-orthonormalized so that the residual is exactly zero at the measurement.
+  R_meas_ = Eigen::Quaterniond(R_cam_world).normalized().toRotationMatrix();
+}
+
+bool RotationPosePriorFactor::evaluate(const Eigen::Isometry3d& T_cam_world, Eigen::VectorXd& residual,
+                                       Eigen::MatrixXd* jacobian) const {
+  const Eigen::AngleAxisd e(T_cam_world.linear() * R_meas_.transpose());
+  const Eigen::Vector3d phi = e.angle() * e.axis();
+  residual = invSigma_ * phi;
+  if (jacobian) {
+    jacobian->setZero(3, 6);
+    jacobian->leftCols<3>() = invSigma_ * inverseLeftJacobianSO3(phi);
+  }
+  return true;
 }
 
 ceres::CostFunction* RotationPriorFactor::newCostFunction() const {

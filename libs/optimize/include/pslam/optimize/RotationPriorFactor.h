@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "pslam/optimize/BAFactor.h"
+#include "pslam/optimize/PoseFactor.h"
 
 namespace pslam::optimize {
 
@@ -36,6 +37,28 @@ class RotationPriorFactor : public BAFactor {
  private:
   map::KeyFrameId keyframe_;
   Eigen::Quaterniond q_meas_;
+  double invSigma_;
+};
+
+/// The same measurement as a factor of one frame's motion-only pose optimization (PoseFactor): a soft Manhattan
+/// rotation in tracking (`[Manhattan] trackingRotationSigmaDeg` > 0) instead of the thesis' fixed one (eq. 4.2),
+/// for normals whose rotation is a few degrees off (a network's). Residual r = Log(R R_meas^T) / sigma with the
+/// analytic Jacobian w.r.t. the left perturbation R <- exp(omega) R: dr/domega = J_l^-1(Log(R R_meas^T)) / sigma,
+/// zero for the translation. Same Huber delta and chi-square threshold as the BA form.
+class RotationPosePriorFactor : public PoseFactor {
+ public:
+  /// Throws pslam::Error on a non-rotation or a bad sigma.
+  RotationPosePriorFactor(const Eigen::Matrix3d& R_cam_world, double sigmaRad);
+
+  std::string kind() const override { return "rotation_prior"; }
+  int dimension() const override { return 3; }
+  bool evaluate(const Eigen::Isometry3d& T_cam_world, Eigen::VectorXd& residual,
+                Eigen::MatrixXd* jacobian) const override;
+  double huberDelta() const override { return std::sqrt(kRotationPriorChi2); }
+  double chi2Threshold() const override { return kRotationPriorChi2; }
+
+ private:
+  Eigen::Matrix3d R_meas_;
   double invSigma_;
 };
 
