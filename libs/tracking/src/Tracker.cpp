@@ -73,8 +73,12 @@ void Tracker::enableManhattanPath(ManhattanPathParams params, std::unique_ptr<Po
   manhattan_ = true;
 }
 
+bool Tracker::softRotationPrior(const Frame& frame) const {
+  return frame.rotationPrior && manhattanParams_.trackingRotation != "fixed";
+}
+
 const PoseSolver& Tracker::solverFor(const Frame& frame) const {
-  return frame.rotationPrior && manhattanSolver_ ? *manhattanSolver_ : *solver_;
+  return frame.rotationPrior && !softRotationPrior(frame) && manhattanSolver_ ? *manhattanSolver_ : *solver_;
 }
 
 void Tracker::setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> policy) {
@@ -237,7 +241,8 @@ int Tracker::optimizeFramePose(Frame& frame) {
     lineFactors = lines_->poseFactors(frame, map_, referenceKeyFrame_);
   }
   // ---- end line segments
-  // Lines count only when the rotation is fixed (a 3-DoF problem they can carry with a few points, §4.4.2).
+  // Lines count only when the rotation is fixed or held by a prior (a 3-DoF problem they can carry with a few
+  // points, §4.4.2).
   const std::size_t lineConstraints = frame.rotationPrior ? lineFactors.size() : 0;
   if (obs.size() + lineConstraints < 3 && direct.empty()) {
     for (std::size_t i : evidence) frame.mapPointIds[i] = map::kNoMapPoint;
@@ -249,8 +254,12 @@ int Tracker::optimizeFramePose(Frame& frame) {
   request.T_cam_world_initial = frame.T_cam_world;
   request.camera = frame.camera;
   request.observations = std::move(obs);
-  request.rotationPrior = frame.rotationPrior;
   request.factors.insert(request.factors.end(), lineFactors.begin(), lineFactors.end());  // lines (after direct)
+  if (softRotationPrior(frame))  // the Manhattan rotation as a measurement of the 6-DoF pose (after the lines)
+    request.factors.push_back(std::make_shared<optimize::RotationPosePriorFactor>(
+        *frame.rotationPrior, manhattanParams_.trackingRotationSigmaDeg * M_PI / 180.0));
+  else
+    request.rotationPrior = frame.rotationPrior;
   const optimize::PoseOptimizationResult r =
       direct.empty() ? solverFor(frame).solve(request)
                      : solverFor(frame).solveCoarseToFine(request, direct, direct_->coarsestLevel());
@@ -261,7 +270,8 @@ int Tracker::optimizeFramePose(Frame& frame) {
   for (bool o : directOutliers_) directInliers_ += o ? 0 : 1;
   // The lines' flags follow the direct ones in factorOutlier (PoseSolver::solveCoarseToFine).
   lineFactors_ = static_cast<int>(lineFactors.size());
-  lineOutliers_.assign(r.factorOutlier.begin() + static_cast<long>(direct.size()), r.factorOutlier.end());
+  const auto firstLine = r.factorOutlier.begin() + static_cast<long>(direct.size());
+  lineOutliers_.assign(firstLine, firstLine + static_cast<long>(lineFactors.size()));
   for (bool o : lineOutliers_) lineInliers_ += o ? 0 : 1;
   int inliers = 0;
   for (std::size_t k = 0; k < keypointOf.size(); ++k) {
@@ -353,6 +363,13 @@ std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, Ma
     report.reason = "Manhattan rotation " + std::to_string(deviation) + " deg from the prediction";
     return std::nullopt;
   }
+  // "relative": the increment between two Manhattan frames applied to the last frame's rotation (the first
+  // frame after a gap in Manhattan frames takes the absolute one).
+  if (manhattanParams_.trackingRotation == "relative" && last_.R_cam_mf) {
+    double lastDeviation = 0.0;
+    const Eigen::Matrix3d R_last = rotationFromManhattanFrame(*last_.R_cam_mf, last_.T_cam_world.linear(), lastDeviation);
+    return Eigen::Matrix3d(R_cam_world * R_last.transpose() * last_.T_cam_world.linear());
+  }
   return R_cam_world;
 }
 
@@ -389,8 +406,14 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   // The motion model's camera centre with the Manhattan rotation.
   const Eigen::Isometry3d predicted = predictedPose();
   const Eigen::Vector3d centre = -(predicted.linear().transpose() * predicted.translation());
-  frame.T_cam_world.linear() = R_cam_world;
-  frame.T_cam_world.translation() = -(R_cam_world * centre);
+  if (softRotationPrior(frame)) {
+    // A soft prior may be degrees off: the search starts from the motion model's pose, the prior only enters
+    // the optimization.
+    frame.T_cam_world = predicted;
+  } else {
+    frame.T_cam_world.linear() = R_cam_world;
+    frame.T_cam_world.translation() = -(R_cam_world * centre);
+  }
   // Motion-model search first; when the frame moved too far for it, the reference keyframe's descriptor matches
   // (with the rotation fixed, a few of them fix the translation).
   const int n = searchLastFrame(frame, static_cast<float>(manhattanParams_.searchRadiusFactor));
@@ -404,7 +427,9 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   }
   // §4.4.2 "Pose Refinement": the local map refines the Manhattan estimate in all 6 DoF ("not limited to MW
   // conform solutions"), or keeps the rotation when refinePose = false.
-  if (manhattanParams_.refinePose) frame.rotationPrior.reset();
+  // A soft prior stays: the refinement is 6-DoF either way, and the prior holds the rotation where the local
+  // map has too few points to fix it.
+  if (manhattanParams_.refinePose && !softRotationPrior(frame)) frame.rotationPrior.reset();
   deferCounters_ = true;
   const int inliers = trackLocalMap(frame);
   deferCounters_ = false;

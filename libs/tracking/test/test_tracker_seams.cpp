@@ -357,3 +357,35 @@ TEST(TrackerManhattanPath, ExactRotationIsUsedAndAWrongOneFailsValidationAndFall
   EXPECT_NEAR(rc.report.manhattan.priorDeviationDeg, 4.0, 0.5);
   EXPECT_LT(rotationErrorDeg(rc.T_cam_world, mt::poseOf(5)), 0.05);
 }
+
+TEST(TrackerManhattanPath, ASoftRotationPriorDegreesOffIsOutvotedByThePointsAndTheFrameStaysOnTheManhattanPath) {
+  // [Manhattan] trackingRotation = absolute | relative: the Manhattan rotation is a 1-deg prior of a 6-DoF pose
+  // optimization. A Manhattan frame 4 deg off (the fixed rotation's validation fails on it, test above) no longer
+  // sends the frame to the fallback: the points, many here, outvote the prior and the pose is the true one.
+  for (const std::string mode : {"absolute", "relative"}) {
+    SCOPED_TRACE(mode);
+    World w;
+    makeWorldAndFrame(w);
+    auto tracker = makeTracker(w);
+    tracking::ManhattanPathParams mp;
+    mp.enabled = true;
+    mp.refinePose = false;  // the local-map step keeps the prior too: the Manhattan estimate must hold alone
+    mp.trackingRotation = mode;
+    tracker->enableManhattanPath(mp, tracking::makePoseSolver("translationOnly", {}));
+    tracker->onMapLoaded();
+    const Eigen::Matrix3d R_world_mf = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Matrix3d off = Eigen::AngleAxisd(4.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    StageTimings timings;
+    tracking::Frame a = viewOf(w, 3, 3, 3.0);
+    a.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
+    ASSERT_TRUE(tracker->track(a, timings).hasPose);
+    for (int slot : {4, 5}) {
+      tracking::Frame f = viewOf(w, slot, static_cast<std::size_t>(slot), slot);
+      f.R_cam_mf = off * mt::poseOf(slot).linear() * R_world_mf;
+      const auto r = tracker->track(f, timings);
+      ASSERT_TRUE(r.hasPose) << "slot " << slot;
+      EXPECT_EQ(r.report.manhattan.mode, "manhattan") << "slot " << slot << ": " << r.report.manhattan.reason;
+      EXPECT_LT(rotationErrorDeg(r.T_cam_world, mt::poseOf(slot)), 0.05) << "slot " << slot;
+    }
+  }
+}

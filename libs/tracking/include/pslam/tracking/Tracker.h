@@ -111,6 +111,16 @@ struct ManhattanPathParams {
   /// 0 = the thesis' BA, points and lines only (§4.4.2 "Pose Refinement"); 0.5 deg suits normals within a
   /// degree (depth, ground truth).
   double baRotationSigmaDeg = 0.5;
+  /// How tracking uses the Manhattan rotation: "fixed" (the thesis, eq. 4.2: the rotation is kept and only the
+  /// translation is optimized), or as a soft measurement of a 6-DoF pose optimization (optimize::
+  /// RotationPosePriorFactor, sigma trackingRotationSigmaDeg per axis, kept in the local-map step; the search
+  /// starts from the motion model's pose): "absolute" R_cam_mf R_world_mf^T, or "relative" the rotation between
+  /// the last frame's Manhattan frame and this one's applied to the last frame's rotation. The soft forms are
+  /// for normals whose Manhattan frames are degrees off, as a network's: a fixed rotation that far off loses the
+  /// matches its translation-only fit needs, and such errors change slowly from frame to frame, so their
+  /// increments are far better than their absolute values (doc/structure.md).
+  std::string trackingRotation = "fixed";
+  double trackingRotationSigmaDeg = 1.0;
 
   template <class V>
   void visitFields(V& v) {
@@ -125,6 +135,9 @@ struct ManhattanPathParams {
     PSLAM_FIELD(v, validationMinRatio, inClosed(0, 1), "... and this share of those in view");
     PSLAM_FIELD(v, refinePose, anyValue, "local-map step: 6 DoF from the Manhattan estimate (true) or translation only");
     PSLAM_FIELD(v, baRotationSigmaDeg, inClosed(0, 45), "local BA: sigma of the keyframes' Manhattan rotation priors, 0 = none");
+    PSLAM_FIELD(v, trackingRotation, oneOf({"fixed", "absolute", "relative"}),
+                "tracking: the Manhattan rotation fixed (eq. 4.2) or a soft prior of a 6-DoF pose, absolute or relative");
+    PSLAM_FIELD(v, trackingRotationSigmaDeg, inOpen(0, 45), "sigma per axis of the soft rotation prior [deg]");
   }
   PSLAM_PARAMS("Manhattan")
 };
@@ -296,6 +309,8 @@ class Tracker {
   /// The motion model's pose for the next frame (the last frame's pose without a velocity).
   Eigen::Isometry3d predictedPose() const { return haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world; }
   /// The pose solver of this frame: the translation-only one when the frame has a rotation prior.
+  /// The frame's rotationPrior is a soft measurement (ManhattanPathParams::trackingRotationSigmaDeg), not fixed.
+  bool softRotationPrior(const Frame& frame) const;
   const PoseSolver& solverFor(const Frame& frame) const;
   /// BoW vector and direct index of keyframe `id` in the vocabulary, when it has none yet.
   void computeKeyFrameBow(map::KeyFrameId id);
