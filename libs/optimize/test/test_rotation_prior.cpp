@@ -1,4 +1,5 @@
-// RotationPriorFactor (and its motion-only form RotationPosePriorFactor): its residual is the known rotation error over sigma, its automatic Jacobian agrees with
+// RotationPriorFactor (and its motion-only form RotationPosePriorFactor): its residual is the known rotation
+// error over sigma, its automatic Jacobian agrees with
 // ceres::GradientChecker through the PoseManifold, in BA a correct prior keeps a keyframe whose points cannot fix
 // its rotation at the true one, and a wrong one (20 deg off) is classified as an outlier.
 #include <gtest/gtest.h>

@@ -367,7 +367,8 @@ std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, Ma
   // frame after a gap in Manhattan frames takes the absolute one).
   if (manhattanParams_.trackingRotation == "relative" && last_.R_cam_mf) {
     double lastDeviation = 0.0;
-    const Eigen::Matrix3d R_last = rotationFromManhattanFrame(*last_.R_cam_mf, last_.T_cam_world.linear(), lastDeviation);
+    const Eigen::Matrix3d R_last =
+        rotationFromManhattanFrame(*last_.R_cam_mf, last_.T_cam_world.linear(), lastDeviation);
     return Eigen::Matrix3d(R_cam_world * R_last.transpose() * last_.T_cam_world.linear());
   }
   return R_cam_world;

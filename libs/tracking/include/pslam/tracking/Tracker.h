@@ -136,7 +136,7 @@ struct ManhattanPathParams {
     PSLAM_FIELD(v, refinePose, anyValue, "local-map step: 6 DoF from the Manhattan estimate (true) or translation only");
     PSLAM_FIELD(v, baRotationSigmaDeg, inClosed(0, 45), "local BA: sigma of the keyframes' Manhattan rotation priors, 0 = none");
     PSLAM_FIELD(v, trackingRotation, oneOf({"fixed", "absolute", "relative"}),
-                "tracking: the Manhattan rotation fixed (eq. 4.2) or a soft prior of a 6-DoF pose, absolute or relative");
+                "tracking: Manhattan rotation fixed (eq. 4.2), or a soft prior of a 6-DoF pose (absolute, relative)");
     PSLAM_FIELD(v, trackingRotationSigmaDeg, inOpen(0, 45), "sigma per axis of the soft rotation prior [deg]");
   }
   PSLAM_PARAMS("Manhattan")
