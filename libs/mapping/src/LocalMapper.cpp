@@ -330,7 +330,9 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
       const double num = line2.x() * x2x + line2.y() * x2y + line2.z();
       if (num * num >= bound * lineNorm2) return;
       const int dist = features::hammingDistance256(d1, kf2.descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      if (dist >= second) return;
+      // The ascending scan skips dist >= second. Out of ascending order a tie of the best at a lower index must
+      // still get through when the second-best already equals the best (three or more equal distances).
+      if (dist > second || (dist == second && !(dist == best && j < bestJ))) return;
       const Eigen::Vector2d x2 = kf2.pixel(j);
       const int octave2 = kf2.keypoints[j].octave;
       if (epipoleValid) {

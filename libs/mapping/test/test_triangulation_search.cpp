@@ -17,7 +17,7 @@ namespace {
 
 map::KeyFrame keyFrameAt(const Eigen::Isometry3d& T_cam_world, const std::vector<Eigen::Vector3d>& points,
                          const std::vector<cv::Mat>& descriptors, const std::vector<float>& angles,
-                         std::mt19937& rng) {
+                         std::mt19937& rng, int flippedBits = 3) {
   map::KeyFrame kf;
   kf.T_cam_world = T_cam_world;
   kf.camera = {700.0, 700.0, 620.0, 188.0, 1241, 376};  // KITTI-like: wide image, epipole may be inside
@@ -34,7 +34,7 @@ map::KeyFrame keyFrameAt(const Eigen::Isometry3d& T_cam_world, const std::vector
     if (!kf.camera.inImage(px)) continue;
     kf.keypoints.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, angles[i] + angleNoise(rng), 1.f, level);
     cv::Mat d = descriptors[i].clone();
-    for (int f = 0; f < 3; ++f) {
+    for (int f = 0; f < flippedBits; ++f) {
       const int b = bit(rng);
       d.at<uchar>(0, b / 8) ^= static_cast<uchar>(1 << (b % 8));
     }
@@ -104,6 +104,48 @@ TEST(TriangulationSearch, GuidedFindsExactlyTheExhaustiveMatches) {
         EXPECT_EQ(guided[k].i2, exhaustive[k].i2) << m.name << " match " << k;
       }
     }
+  }
+}
+
+TEST(TriangulationSearch, GuidedFindsTheExhaustiveMatchesAmongExactTies) {
+  // 40 distinct descriptors over 2000 points, copied exactly: most keypoints have several candidates in their band
+  // at the same best distance, in cells the guided search visits out of index order. The exhaustive scan keeps the
+  // lowest index; the guided one must too, also when a third tie comes after the second-best equals the best.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> ux(-15, 15), uy(-3, 3), uz(3, 60);
+  std::uniform_int_distribution<int> byte(0, 255);
+  std::uniform_real_distribution<float> angle(10.f, 350.f);
+  std::vector<cv::Mat> pool;
+  for (int k = 0; k < 40; ++k) {
+    cv::Mat d(1, 32, CV_8UC1);
+    for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
+    pool.push_back(d);
+  }
+  std::vector<Eigen::Vector3d> points;
+  std::vector<cv::Mat> descriptors;
+  std::vector<float> angles;
+  for (int i = 0; i < 2000; ++i) {
+    angles.push_back(angle(rng));
+    points.emplace_back(ux(rng), uy(rng), uz(rng));
+    descriptors.push_back(pool[static_cast<std::size_t>(i) % pool.size()]);
+  }
+  LocalMappingParams params;
+  params.checkOrientation = false;
+  const map::KeyFrame kf1 = keyFrameAt(pose({0, 0, 0}, {0, 0, 0}), points, descriptors, angles, rng, 0);
+  for (const Eigen::Vector3d& centre : {Eigen::Vector3d(1.0, 0.05, 0.1), Eigen::Vector3d(0.05, 0.8, 0.2),
+                                        Eigen::Vector3d(0.1, 0.0, 1.5)}) {
+    const map::KeyFrame kf2 = keyFrameAt(pose(centre, {0, 0.02, 0}), points, descriptors, angles, rng, 0);
+    const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(
+        kf1.camera.K(), kf1.T_cam_world.linear(), kf1.T_cam_world.translation(), kf2.camera.K(),
+        kf2.T_cam_world.linear(), kf2.T_cam_world.translation());
+    const auto exhaustive = searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::Exhaustive);
+    const auto guided = searchForTriangulation(kf1, kf2, F12, params, TriangulationSearch::Guided);
+    EXPECT_GT(exhaustive.size(), 300u);
+    ASSERT_EQ(guided.size(), exhaustive.size());
+    int differing = 0;
+    for (std::size_t k = 0; k < guided.size(); ++k)
+      differing += guided[k].i1 != exhaustive[k].i1 || guided[k].i2 != exhaustive[k].i2 ? 1 : 0;
+    EXPECT_EQ(differing, 0) << "of " << guided.size() << " matches";
   }
 }
 
