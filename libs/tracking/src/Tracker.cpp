@@ -352,7 +352,9 @@ std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, Ma
     report.reason = "global Manhattan frame not known yet";
     return std::nullopt;
   }
-  if (lost_ || !last_.hasPose) {
+  // Lost: the last tracked pose is the prediction for up to recoveryFrames frames (ManhattanPathParams).
+  const bool recovering = lost_ && last_.hasPose && frame.index <= last_.index + manhattanParams_.recoveryFrames;
+  if ((lost_ && !recovering) || !last_.hasPose) {
     report.reason = "no pose prediction";
     return std::nullopt;
   }

@@ -389,3 +389,43 @@ TEST(TrackerManhattanPath, ASoftRotationPriorDegreesOffIsOutvotedByThePointsAndT
     }
   }
 }
+
+TEST(TrackerManhattanPath, AfterALossTheManhattanPathRetriesFromTheLastPoseForRecoveryFrames) {
+  // [Manhattan] recoveryFrames: a frame without features is lost; the next one is tracked by the Manhattan path
+  // from the last tracked pose when recoveryFrames allows it, and is left to relocalization otherwise (0, the
+  // default) or once more frames than that have passed since the last tracked one.
+  for (const int recoveryFrames : {0, 3}) {
+    for (const std::size_t gap : {1u, 5u}) {
+      SCOPED_TRACE("recoveryFrames " + std::to_string(recoveryFrames) + ", gap " + std::to_string(gap));
+      World w;
+      makeWorldAndFrame(w);
+      tracking::TrackerParams tp;
+      tp.resetKeyFrames = 2;  // the 3-keyframe map is kept when the blank frames are lost
+      auto tracker = std::make_unique<tracking::Tracker>(w.map, w.camera, tp, nullptr, nullptr, 1);
+      tracking::ManhattanPathParams mp;
+      mp.enabled = true;
+      mp.recoveryFrames = recoveryFrames;
+      tracker->enableManhattanPath(mp, tracking::makePoseSolver("translationOnly", {}));
+      tracker->onMapLoaded();
+      const Eigen::Matrix3d R_world_mf = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      StageTimings timings;
+      tracking::Frame a = viewOf(w, 3, 3, 3.0);
+      a.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
+      ASSERT_TRUE(tracker->track(a, timings).hasPose);
+      for (std::size_t k = 1; k <= gap; ++k) {  // blank frames: lost
+        tracking::Frame blank = tracking::makeFrameFromFeatures(3 + k, 3.0 + 0.1 * static_cast<double>(k), w.camera,
+                                                                {}, cv::Mat(0, 32, CV_8U), 8, 1.2, cv::Mat());
+        blank.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
+        ASSERT_FALSE(tracker->track(blank, timings).hasPose);
+      }
+      tracking::Frame b = viewOf(w, 4, 4 + gap, 4.0 + static_cast<double>(gap));
+      b.R_cam_mf = mt::poseOf(4).linear() * R_world_mf;
+      const auto rb = tracker->track(b, timings);
+      ASSERT_TRUE(rb.hasPose);  // relocalization finds this well-textured scene either way
+      EXPECT_LT(rotationErrorDeg(rb.T_cam_world, mt::poseOf(4)), 0.05);
+      const bool recovers = static_cast<int>(gap) + 1 <= recoveryFrames;
+      EXPECT_EQ(rb.report.manhattan.mode, recovers ? "manhattan" : "fallback") << rb.report.manhattan.reason;
+      EXPECT_EQ(rb.report.method, recovers ? "manhattan" : "relocalization");
+    }
+  }
+}

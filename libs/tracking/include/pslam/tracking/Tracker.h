@@ -121,6 +121,9 @@ struct ManhattanPathParams {
   /// increments are far better than their absolute values (doc/structure.md).
   std::string trackingRotation = "fixed";
   double trackingRotationSigmaDeg = 1.0;
+  /// After tracking is lost, the Manhattan path keeps trying from the last tracked pose (no motion model) for
+  /// this many frames, before relocalization alone is left (0: ORB-SLAM's relocalization only).
+  int recoveryFrames = 0;
 
   template <class V>
   void visitFields(V& v) {
@@ -138,6 +141,7 @@ struct ManhattanPathParams {
     PSLAM_FIELD(v, trackingRotation, oneOf({"fixed", "absolute", "relative"}),
                 "tracking: Manhattan rotation fixed (eq. 4.2), or a soft prior of a 6-DoF pose (absolute, relative)");
     PSLAM_FIELD(v, trackingRotationSigmaDeg, inOpen(0, 45), "sigma per axis of the soft rotation prior [deg]");
+    PSLAM_FIELD(v, recoveryFrames, atLeast(0), "lost: frames the Manhattan path retries from the last tracked pose");
   }
   PSLAM_PARAMS("Manhattan")
 };
