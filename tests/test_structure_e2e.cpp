@@ -97,8 +97,11 @@ TEST(StructureE2E, ManhattanRotationPriorsInLocalBAKeepTheLowTextureClipTracked)
   // rotation stops agreeing with the map points and, with a few dozen corners per frame, tracking is lost; with
   // them every frame after initialization is tracked.
   const fs::path rawlog = render("lowtexture", 110, 2, false);
-  const SlamRun thesisBA = runSystem(rawlog, "config/slam/structure.ini", {"Manhattan.baRotationSigmaDeg=0"});
-  const SlamRun priors = runSystem(rawlog, "config/slam/structure.ini");
+  // Without structure.ini's recovery after a loss, which hides part of the difference (it brings the thesis' BA
+  // back after some of its losses).
+  const SlamRun thesisBA =
+      runSystem(rawlog, "config/slam/structure.ini", {"Manhattan.baRotationSigmaDeg=0", "Manhattan.recoveryFrames=0"});
+  const SlamRun priors = runSystem(rawlog, "config/slam/structure.ini", {"Manhattan.recoveryFrames=0"});
   // Both lose frame 7 (two keyframes, too few matches: map reset) and initialize again at frame 15 or so.
   ASSERT_TRUE(priors.summary["initialized"].get<bool>());
   EXPECT_LE(priors.summary["frames_lost"].get<std::size_t>(), 1u);
