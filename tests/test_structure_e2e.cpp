@@ -12,6 +12,7 @@
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/eval/Metrics.h"
+#include "pslam/priors/NormalPriorsApp.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/system/System.h"
 #include "pslam_test/SameStampPairs.h"
@@ -109,6 +110,31 @@ TEST(StructureE2E, ManhattanRotationPriorsInLocalBAKeepTheLowTextureClipTracked)
   EXPECT_GT(thesisBA.summary["frames_lost"].get<std::size_t>(), 20u)
       << "this clip no longer shows what the priors are for; pick one where the thesis' BA loses tracking";
   EXPECT_LT(ateSim3(rawlog.parent_path() / "lowtexture_groundtruth.txt", priors.trajectory), 0.05);
+}
+
+TEST(StructureE2E, NetworkNormalsOnAHeldOutLowTextureClipAreTrackedWithTheRelativeRotationPrior) {
+  // Issue 13: monocular normals from the shipped network (config/manhattan/network_normals.ini) on a lowtexture
+  // seed it never saw in training. Its Manhattan frames are a few degrees off: fixed in tracking (the thesis'
+  // eq. 4.2) they lose the camera; as a frame-to-frame prior of a 6-DoF pose they keep it (doc/structure.md).
+  // Measured when written: fixed 77 frames tracked, relative 146 (all after initialization at frame 4), ATE 0.036 m.
+  const fs::path rendered = render("lowtexture", 150, 1001, false);
+  priors::NormalPriorsOptions np;
+  np.input = rendered;
+  np.output = rendered.parent_path() / "lowtexture_network.rawlog";
+  np.source = "network";
+  np.config = kSource / "config/manhattan/network_normals.ini";
+  np.progress = false;
+  priors::runNormalPriors(np);
+  const SlamRun fixed = runSystem(np.output, "config/slam/structure.ini");
+  const SlamRun relative = runSystem(np.output, "config/slam/structure.ini", {"Manhattan.trackingRotation=relative"});
+  ASSERT_TRUE(relative.summary["initialized"].get<bool>());
+  EXPECT_LE(relative.summary["initialized_at_frame"].get<long long>(), 30);
+  const auto tracked = relative.summary["frames_tracked"].get<std::size_t>();
+  const auto afterInit = 150u - static_cast<std::size_t>(relative.summary["initialized_at_frame"].get<long long>());
+  EXPECT_GE(tracked, afterInit * 95 / 100) << "tracked " << tracked << " of " << afterInit << " after initialization";
+  EXPECT_LT(fixed.summary["frames_tracked"].get<std::size_t>() + 30u, tracked)
+      << "this clip no longer shows what the relative prior is for";
+  EXPECT_LT(ateSim3(rendered.parent_path() / "lowtexture_groundtruth.txt", relative.trajectory), 0.1);
 }
 
 TEST(StructureE2E, FallbackWhereNormalsVanishThenTheManhattanPathAgain) {
