@@ -54,26 +54,43 @@ Eigen::Isometry3d pose(const Eigen::Vector3d& centre, const Eigen::Vector3d& axi
   return T_world_cam.inverse();
 }
 
+cv::Mat randomDescriptor(std::mt19937& rng) {
+  std::uniform_int_distribution<int> byte(0, 255);
+  cv::Mat d(1, 32, CV_8UC1);
+  for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
+  return d;
+}
+
+struct RandomScene {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<cv::Mat> descriptors;
+  std::vector<float> angles;
+};
+
+/// n points, each with a random keypoint angle, position and descriptor (drawn in that order);
+/// descriptor(i, earlier) gives the i-th descriptor.
+template <class Descriptor>
+RandomScene randomScene(std::mt19937& rng, int n, Descriptor&& descriptor) {
+  std::uniform_real_distribution<double> ux(-15, 15), uy(-3, 3), uz(3, 60);
+  std::uniform_real_distribution<float> angle(10.f, 350.f);
+  RandomScene s;
+  for (int i = 0; i < n; ++i) {
+    s.angles.push_back(angle(rng));
+    s.points.emplace_back(ux(rng), uy(rng), uz(rng));
+    s.descriptors.push_back(descriptor(i, s.descriptors));
+  }
+  return s;
+}
+
 }  // namespace
 
 TEST(TriangulationSearch, GuidedFindsExactlyTheExhaustiveMatches) {
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> ux(-15, 15), uy(-3, 3), uz(3, 60);
-  std::uniform_int_distribution<int> byte(0, 255);
-  std::vector<Eigen::Vector3d> points;
-  std::vector<cv::Mat> descriptors;
-  std::vector<float> angles;
-  std::uniform_real_distribution<float> angle(10.f, 350.f);
-  for (int i = 0; i < 2500; ++i) {
-    angles.push_back(angle(rng));
-    points.emplace_back(ux(rng), uy(rng), uz(rng));
-    cv::Mat d(1, 32, CV_8UC1);
+  const RandomScene scene = randomScene(rng, 2500, [&](int i, const std::vector<cv::Mat>& earlier) {
     // One descriptor in five repeats an earlier one: ambiguous candidates along the band.
-    if (i > 10 && i % 5 == 0) d = descriptors[static_cast<std::size_t>(i / 2)].clone();
-    else
-      for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
-    descriptors.push_back(d);
-  }
+    return i > 10 && i % 5 == 0 ? earlier[static_cast<std::size_t>(i / 2)].clone() : randomDescriptor(rng);
+  });
+  const auto& [points, descriptors, angles] = scene;
   struct Motion {
     const char* name;
     Eigen::Vector3d centre, axisAngle;
@@ -112,23 +129,11 @@ TEST(TriangulationSearch, GuidedFindsTheExhaustiveMatchesAmongExactTies) {
   // at the same best distance, in cells the guided search visits out of index order. The exhaustive scan keeps the
   // lowest index; the guided one must too, also when a third tie comes after the second-best equals the best.
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> ux(-15, 15), uy(-3, 3), uz(3, 60);
-  std::uniform_int_distribution<int> byte(0, 255);
-  std::uniform_real_distribution<float> angle(10.f, 350.f);
   std::vector<cv::Mat> pool;
-  for (int k = 0; k < 40; ++k) {
-    cv::Mat d(1, 32, CV_8UC1);
-    for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
-    pool.push_back(d);
-  }
-  std::vector<Eigen::Vector3d> points;
-  std::vector<cv::Mat> descriptors;
-  std::vector<float> angles;
-  for (int i = 0; i < 2000; ++i) {
-    angles.push_back(angle(rng));
-    points.emplace_back(ux(rng), uy(rng), uz(rng));
-    descriptors.push_back(pool[static_cast<std::size_t>(i) % pool.size()]);
-  }
+  for (int k = 0; k < 40; ++k) pool.push_back(randomDescriptor(rng));
+  const RandomScene scene = randomScene(
+      rng, 2000, [&](int i, const std::vector<cv::Mat>&) { return pool[static_cast<std::size_t>(i) % pool.size()]; });
+  const auto& [points, descriptors, angles] = scene;
   LocalMappingParams params;
   params.checkOrientation = false;
   const map::KeyFrame kf1 = keyFrameAt(pose({0, 0, 0}, {0, 0, 0}), points, descriptors, angles, rng, 0);
@@ -151,19 +156,9 @@ TEST(TriangulationSearch, GuidedFindsTheExhaustiveMatchesAmongExactTies) {
 
 TEST(TriangulationSearch, VocabularyNodeSearchesOnlyWithinTheKeypointsNode) {
   std::mt19937 rng(3);
-  std::uniform_real_distribution<double> ux(-15, 15), uy(-3, 3), uz(3, 60);
-  std::uniform_int_distribution<int> byte(0, 255);
-  std::uniform_real_distribution<float> angle(10.f, 350.f);
-  std::vector<Eigen::Vector3d> points;
-  std::vector<cv::Mat> descriptors;
-  std::vector<float> angles;
-  for (int i = 0; i < 1500; ++i) {
-    angles.push_back(angle(rng));
-    points.emplace_back(ux(rng), uy(rng), uz(rng));
-    cv::Mat d(1, 32, CV_8UC1);
-    for (int b = 0; b < 32; ++b) d.at<uchar>(0, b) = static_cast<uchar>(byte(rng));
-    descriptors.push_back(d);
-  }
+  const RandomScene scene =
+      randomScene(rng, 1500, [&](int, const std::vector<cv::Mat>&) { return randomDescriptor(rng); });
+  const auto& [points, descriptors, angles] = scene;
   map::KeyFrame kf1 = keyFrameAt(pose({0, 0, 0}, {0, 0, 0}), points, descriptors, angles, rng);
   map::KeyFrame kf2 = keyFrameAt(pose({1.0, 0.05, 0.1}, {0, 0.03, 0}), points, descriptors, angles, rng);
   const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(kf1.camera.K(), kf1.T_cam_world.linear(),
