@@ -312,9 +312,10 @@ class Tracker {
   int searchLastFrame(Frame& frame, float widestFactor = 2.f);
   /// The motion model's pose for the next frame (the last frame's pose without a velocity).
   Eigen::Isometry3d predictedPose() const { return haveVelocity_ ? velocity_ * last_.T_cam_world : last_.T_cam_world; }
-  /// The pose solver of this frame: the translation-only one when the frame has a rotation prior.
-  /// The frame's rotationPrior is a soft measurement (ManhattanPathParams::trackingRotationSigmaDeg), not fixed.
+  /// The frame's rotationPrior is a soft measurement of its pose (ManhattanPathParams::trackingRotation
+  /// "absolute" / "relative"), not a fixed rotation.
   bool softRotationPrior(const Frame& frame) const;
+  /// The pose solver of this frame: the translation-only one when the frame has a fixed rotation prior.
   const PoseSolver& solverFor(const Frame& frame) const;
   /// BoW vector and direct index of keyframe `id` in the vocabulary, when it has none yet.
   void computeKeyFrameBow(map::KeyFrameId id);
