@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <thread>
 
 #include <Eigen/Dense>
 
@@ -252,13 +253,33 @@ class EpipolarBandGrid {
   std::vector<std::size_t> order_;
 };
 
+/// A candidate partner of one kf1 keypoint: a free kf2 keypoint j in its epipolar band, far enough from the
+/// epipole, at descriptor distance `dist`.
+struct TriangulationCandidate {
+  int dist = 0;
+  std::uint32_t j = 0;
+};
+
+/// The candidates of a run of kf1 keypoints, each keypoint's sorted by (distance, kf2 index).
+struct CandidateChunk {
+  std::vector<std::size_t> keypoints;         ///< kf1 keypoints of the chunk, ascending
+  std::vector<std::uint32_t> begin;           ///< keypoints[k]'s candidates are data[begin[k], begin[k + 1])
+  std::vector<TriangulationCandidate> data;
+};
+
 /// ORB-SLAM SearchForTriangulation without a vocabulary: every unmatched keypoint of kf1 against every
 /// unmatched keypoint of kf2 (ascending indices): on the epipolar line (chi2 3.84 with kf2's level sigma^2),
 /// far enough from the epipole; the best must be <= TH_LOW (and < nnRatio x the second best if nnRatio < 1); one kf1 keypoint
 /// per kf2 keypoint (first come); then the rotation histogram.
+///
+/// Two phases. (1) Each free kf1 keypoint's candidates, independent of the other keypoints: split over `threads`
+/// (the costly part, the descriptor distances over the band). (2) In ascending kf1 order, the best and second-best
+/// among the candidates no earlier keypoint took: the one-kf1-per-kf2 rule makes this sequential, and cheap. The
+/// matches are those of ORB-SLAM's single ascending scan (best = lowest distance, the lowest index among equal ones;
+/// second = the next distance among the candidates still free), whatever the number of threads.
 std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const KeyFrame& kf2,
                                                   const Eigen::Matrix3d& F12, const LocalMappingParams& params,
-                                                  TriangulationSearch mode) {
+                                                  TriangulationSearch mode, int threads) {
   // Epipole in kf2: projection of kf1's centre.
   const Eigen::Vector3d c1in2 = kf2.T_cam_world * kf1.cameraCenter();
   const bool epipoleValid = c1in2.z() > 1e-9;
@@ -276,11 +297,8 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
     y2s[n] = kf2.keypoints[free2[n]].pt.y;
     bound2[n] = kEpipolarChi2 * kf2.levelSigma2.at(kf2.keypoints[free2[n]].octave);
   }
-  std::vector<bool> taken2(kf2.numKeypoints(), false);
   // Guided: only the kf2 keypoints in grid cells the band of x1's line crosses, visited cell by cell. The result
-  // is that of the exhaustive scan: the same candidates pass the band test, and the best / second-best distances
-  // and the best keypoint (the lowest index among equal distances, as the ascending scan finds it) do not depend
-  // on the visiting order.
+  // is that of the exhaustive scan: the same candidates pass the band test, and phase 2 sorts them.
   double maxBound2 = 0.0;
   for (double b : bound2) maxBound2 = std::max(maxBound2, b);
   const EpipolarBandGrid grid(x2s, y2s, std::sqrt(maxBound2));
@@ -311,65 +329,112 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
         if (j < kf2.numKeypoints() && kf2.mapPointIds[j] == map::kNoMapPoint) free2ByNode[node].push_back(j);
   }
 
+  // Without the ratio test (nnRatio = 1, ORB-SLAM2's) only the best distance matters and it must be <= TH_LOW:
+  // farther candidates are not kept. With it, the second-best may be any distance.
+  const bool keepFarCandidates = params.nnRatio < 1.0;
+  const auto collect = [&](CandidateChunk& chunk) {
+    chunk.begin.assign(1, 0);
+    for (std::size_t i : chunk.keypoints) {
+      const std::size_t first = chunk.data.size();
+      const uint8_t* d1 = kf1.descriptors.ptr<uint8_t>(static_cast<int>(i));
+      const Eigen::Vector2d x1 = kf1.pixel(i);
+      const Eigen::Vector3d line2 = F12.transpose() * Eigen::Vector3d(x1.x(), x1.y(), 1.0);  // l2 = F12^T x1
+      const double lineNorm2 = line2.head<2>().squaredNorm();
+      const auto consider = [&](std::size_t j, double x2x, double x2y, double bound) {
+        const double num = line2.x() * x2x + line2.y() * x2y + line2.z();
+        if (num * num >= bound * lineNorm2) return;
+        const int dist = features::hammingDistance256(d1, kf2.descriptors.ptr<uint8_t>(static_cast<int>(j)));
+        if (dist > params.maxDescriptorDistance && !keepFarCandidates) return;
+        const Eigen::Vector2d x2 = kf2.pixel(j);
+        const int octave2 = kf2.keypoints[j].octave;
+        if (epipoleValid) {
+          const double minDist = params.epipolarMinDistancePixels;
+          if ((x2 - epipole).squaredNorm() < minDist * minDist * kf2.scaleFactors.at(octave2)) return;
+        }
+        // Same test through the geometry library (eq. 2.46), the reference for the fast band test above.
+        if (!geometry::checkDistEpipolarLine(x1, x2, F12, kf2.levelSigma2.at(octave2), kEpipolarChi2)) return;
+        chunk.data.push_back({dist, static_cast<std::uint32_t>(j)});
+      };
+      if (!(lineNorm2 > 0.0)) {  // x1 at the epipole: no line
+      } else if (mode == TriangulationSearch::VocabularyNode) {
+        if (nodeOf1[i] != kNoNode)
+          if (const auto it = free2ByNode.find(nodeOf1[i]); it != free2ByNode.end())
+            for (std::size_t j : it->second)
+              consider(j, kf2.keypoints[j].pt.x, kf2.keypoints[j].pt.y,
+                       kEpipolarChi2 * kf2.levelSigma2.at(kf2.keypoints[j].octave));
+      } else if (mode == TriangulationSearch::Guided) {
+        grid.forEachCrossedCell(line2, [&](std::size_t begin, std::size_t end) {
+          for (std::size_t k = begin; k < end; ++k) consider(gj[k], gx[k], gy[k], gb[k]);
+        });
+      } else {
+        for (std::size_t n = 0; n < free2.size(); ++n) consider(free2[n], x2s[n], y2s[n], bound2[n]);
+      }
+      std::sort(chunk.data.begin() + static_cast<std::ptrdiff_t>(first), chunk.data.end(),
+                [](const TriangulationCandidate& a, const TriangulationCandidate& b) {
+                  return a.dist != b.dist ? a.dist < b.dist : a.j < b.j;
+                });
+      chunk.begin.push_back(static_cast<std::uint32_t>(chunk.data.size()));
+    }
+  };
+
+  // Phase 1: the free kf1 keypoints in `threads` runs of equal size, each collected on a thread of its own.
+  std::vector<std::size_t> free1;
+  for (std::size_t i = 0; i < kf1.numKeypoints(); ++i)
+    if (kf1.mapPointIds[i] == map::kNoMapPoint) free1.push_back(i);
+  const std::size_t numChunks = std::clamp<std::size_t>(static_cast<std::size_t>(std::max(threads, 1)), 1,
+                                                        std::max<std::size_t>(free1.size(), 1));
+  std::vector<CandidateChunk> chunks(numChunks);
+  for (std::size_t c = 0; c < numChunks; ++c)
+    chunks[c].keypoints.assign(free1.begin() + static_cast<std::ptrdiff_t>(c * free1.size() / numChunks),
+                               free1.begin() + static_cast<std::ptrdiff_t>((c + 1) * free1.size() / numChunks));
+  {
+    std::vector<std::exception_ptr> errors(numChunks);
+    std::vector<std::thread> workers;
+    for (std::size_t c = 1; c < numChunks; ++c)
+      workers.emplace_back([&, c] {
+        try {
+          collect(chunks[c]);
+        } catch (...) {
+          errors[c] = std::current_exception();
+        }
+      });
+    try {
+      collect(chunks[0]);
+    } catch (...) {
+      errors[0] = std::current_exception();
+    }
+    for (std::thread& w : workers) w.join();
+    for (const std::exception_ptr& e : errors)
+      if (e) std::rethrow_exception(e);
+  }
+
+  // Phase 2: ascending kf1 order; a kf2 keypoint goes to the first kf1 keypoint that takes it.
+  std::vector<bool> taken2(kf2.numKeypoints(), false);
   std::vector<PairMatch> matches;
   std::vector<int> bins;
-  for (std::size_t i = 0; i < kf1.numKeypoints(); ++i) {
-    if (kf1.mapPointIds[i] != map::kNoMapPoint) continue;
-    const uint8_t* d1 = kf1.descriptors.ptr<uint8_t>(static_cast<int>(i));
-    const Eigen::Vector2d x1 = kf1.pixel(i);
-    // Best and second best over every candidate in the band (the second may exceed TH_LOW, as in ORB-SLAM's
-    // projection searches).
-    int best = 257, second = 257;
-    std::size_t bestJ = 0;
-    bool found = false;
-    const Eigen::Vector3d line2 = F12.transpose() * Eigen::Vector3d(x1.x(), x1.y(), 1.0);  // l2 = F12^T x1
-    const double lineNorm2 = line2.head<2>().squaredNorm();
-    if (!(lineNorm2 > 0.0)) continue;  // x1 at the epipole: no line
-    const auto consider = [&](std::size_t j, double x2x, double x2y, double bound) {
-      if (taken2[j]) return;
-      const double num = line2.x() * x2x + line2.y() * x2y + line2.z();
-      if (num * num >= bound * lineNorm2) return;
-      const int dist = features::hammingDistance256(d1, kf2.descriptors.ptr<uint8_t>(static_cast<int>(j)));
-      // The ascending scan skips dist >= second. Out of ascending order a tie of the best at a lower index must
-      // still get through when the second-best already equals the best (three or more equal distances).
-      if (dist > second || (dist == second && !(dist == best && j < bestJ))) return;
-      const Eigen::Vector2d x2 = kf2.pixel(j);
-      const int octave2 = kf2.keypoints[j].octave;
-      if (epipoleValid) {
-        const double minDist = params.epipolarMinDistancePixels;
-        if ((x2 - epipole).squaredNorm() < minDist * minDist * kf2.scaleFactors.at(octave2)) return;
+  for (const CandidateChunk& chunk : chunks) {
+    for (std::size_t k = 0; k < chunk.keypoints.size(); ++k) {
+      const std::size_t i = chunk.keypoints[k];
+      int best = 257, second = 257;
+      std::size_t bestJ = 0;
+      for (std::uint32_t n = chunk.begin[k]; n < chunk.begin[k + 1]; ++n) {
+        const TriangulationCandidate& cand = chunk.data[n];
+        if (taken2[cand.j]) continue;
+        if (best == 257) {
+          best = cand.dist;
+          bestJ = cand.j;
+        } else {
+          second = cand.dist;
+          break;
+        }
       }
-      // Same test through the geometry library (eq. 2.46), the reference for the fast band test above.
-      if (!geometry::checkDistEpipolarLine(x1, x2, F12, kf2.levelSigma2.at(octave2), kEpipolarChi2)) return;
-      if (dist < best) {
-        second = best;
-        best = dist;
-        bestJ = j;
-        found = true;
-      } else if (dist == best && j < bestJ) {  // only out of ascending order (guided): the lower index wins
-        second = best;
-        bestJ = j;
-      } else {
-        second = dist;
-      }
-    };
-    if (mode == TriangulationSearch::VocabularyNode) {
-      if (nodeOf1[i] != kNoNode)
-        if (const auto it = free2ByNode.find(nodeOf1[i]); it != free2ByNode.end())
-          for (std::size_t j : it->second) consider(j, kf2.keypoints[j].pt.x, kf2.keypoints[j].pt.y, kEpipolarChi2 * kf2.levelSigma2.at(kf2.keypoints[j].octave));
-    } else if (mode == TriangulationSearch::Guided) {
-      grid.forEachCrossedCell(line2, [&](std::size_t begin, std::size_t end) {
-        for (std::size_t k = begin; k < end; ++k) consider(gj[k], gx[k], gy[k], gb[k]);
-      });
-    } else {
-      for (std::size_t n = 0; n < free2.size(); ++n) consider(free2[n], x2s[n], y2s[n], bound2[n]);
+      if (best > params.maxDescriptorDistance) continue;  // also: no candidate
+      // Optional ratio test (nnRatio < 1); ORB-SLAM2 applies none here (default nnRatio = 1).
+      if (params.nnRatio < 1.0 && static_cast<double>(best) >= params.nnRatio * static_cast<double>(second)) continue;
+      taken2[bestJ] = true;
+      matches.push_back({i, bestJ});
+      bins.push_back(features::rotationHistogramBin(kf1.keypoints[i].angle, kf2.keypoints[bestJ].angle));
     }
-    if (!found || best > params.maxDescriptorDistance) continue;
-    // Optional ratio test (nnRatio < 1); ORB-SLAM2 applies none here (default nnRatio = 1).
-    if (params.nnRatio < 1.0 && static_cast<double>(best) >= params.nnRatio * static_cast<double>(second)) continue;
-    taken2[bestJ] = true;
-    matches.push_back({i, bestJ});
-    bins.push_back(features::rotationHistogramBin(kf1.keypoints[i].angle, kf2.keypoints[bestJ].angle));
   }
   if (params.checkOrientation) return filterByRotation(matches, bins);
   return matches;
@@ -378,8 +443,9 @@ std::vector<PairMatch> searchForTriangulationImpl(const KeyFrame& kf1, const Key
 }  // namespace
 
 std::vector<PairMatch> searchForTriangulation(const KeyFrame& kf1, const KeyFrame& kf2, const Eigen::Matrix3d& F12,
-                                              const LocalMappingParams& params, TriangulationSearch mode) {
-  return searchForTriangulationImpl(kf1, kf2, F12, params, mode);
+                                              const LocalMappingParams& params, TriangulationSearch mode,
+                                              int threads) {
+  return searchForTriangulationImpl(kf1, kf2, F12, params, mode, threads);
 }
 
 std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
@@ -408,7 +474,7 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
     const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(K1, R1, t1, K2, R2, t2);
     std::vector<PairMatch> matches;
     if (!outsideMapLock_) {
-      matches = searchForTriangulation(kf1, kf2, F12, params_, triangulationSearch_);
+      matches = searchForTriangulation(kf1, kf2, F12, params_, triangulationSearch_, params_.triangulationThreads);
     } else {
       // The search (most of this step's time) runs outside the map lock on copies of the two keyframes, taken
       // with the lock held: tracking may insert a keyframe and link observations (covisibility) meanwhile.
@@ -419,7 +485,8 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
       else
         copy1->mapPointIds = kf1.mapPointIds;
       const KeyFrame copy2 = kf2;
-      if (!runOutsideMapLock([&] { matches = searchForTriangulation(*copy1, copy2, F12, params_, triangulationSearch_); }))
+      if (!runOutsideMapLock(
+              [&] { matches = searchForTriangulation(*copy1, copy2, F12, params_, triangulationSearch_, params_.triangulationThreads); }))
         return {};  // the map was reset: kfId is gone
     }
     const geometry::Matrix34d P1 = geometry::projectionMatrix(K1, R1, t1), P2 = geometry::projectionMatrix(K2, R2, t2);

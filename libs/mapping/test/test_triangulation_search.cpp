@@ -203,3 +203,37 @@ TEST(TriangulationSearch, VocabularyNodeSearchesOnlyWithinTheKeypointsNode) {
   }
   EXPECT_LT(split.size(), guided.size() / 4);
 }
+
+TEST(TriangulationSearch, ThreadsSplitTheSearchWithoutChangingItsMatches) {
+  // Exact ties (40 descriptors over 2000 points): a kf2 keypoint is the best candidate of several kf1 keypoints,
+  // often in different threads' runs, and only the first in ascending kf1 order may take it.
+  std::mt19937 rng(19);
+  std::vector<cv::Mat> pool;
+  for (int k = 0; k < 40; ++k) pool.push_back(randomDescriptor(rng));
+  const RandomScene scene = randomScene(
+      rng, 2000, [&](int i, const std::vector<cv::Mat>&) { return pool[static_cast<std::size_t>(i) % pool.size()]; });
+  const auto& [points, descriptors, angles] = scene;
+  const map::KeyFrame kf1 = keyFrameAt(pose({0, 0, 0}, {0, 0, 0}), points, descriptors, angles, rng);
+  const map::KeyFrame kf2 = keyFrameAt(pose({0.6, 0.5, 0.8}, {0.01, 0.05, 0.08}), points, descriptors, angles, rng);
+  const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(kf1.camera.K(), kf1.T_cam_world.linear(),
+                                                             kf1.T_cam_world.translation(), kf2.camera.K(),
+                                                             kf2.T_cam_world.linear(), kf2.T_cam_world.translation());
+  LocalMappingParams params;
+  for (double nnRatio : {1.0, 0.9}) {
+    params.nnRatio = nnRatio;
+    for (TriangulationSearch mode : {TriangulationSearch::Exhaustive, TriangulationSearch::Guided}) {
+      const auto one = searchForTriangulation(kf1, kf2, F12, params, mode, 1);
+      if (nnRatio == 1.0) {
+        EXPECT_GT(one.size(), 200u);
+      }
+      for (int threads : {2, 3, 7}) {
+        const auto many = searchForTriangulation(kf1, kf2, F12, params, mode, threads);
+        ASSERT_EQ(many.size(), one.size()) << threads << " threads, nnRatio " << nnRatio;
+        int differing = 0;
+        for (std::size_t k = 0; k < one.size(); ++k)
+          differing += many[k].i1 != one[k].i1 || many[k].i2 != one[k].i2 ? 1 : 0;
+        EXPECT_EQ(differing, 0) << threads << " threads, nnRatio " << nnRatio;
+      }
+    }
+  }
+}
