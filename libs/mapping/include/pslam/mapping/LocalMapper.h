@@ -50,8 +50,9 @@ struct LocalMappingParams {
   double scaleConsistencyFactor = 1.5;
   double epipolarMinDistancePixels = 10.0;
   /// Threads of the triangulation search of a keyframe pair (its descriptor distances, the step's main cost); the
-  /// matches, and so the whole run, do not depend on it. KITTI 00 sequential, 2 against 1: the same bytes in 0.88x
-  /// the wall time at 0.99x the CPU (doc/performance.md). 1 = in the mapping thread only.
+  /// matches, and so a sequential run's bytes, do not depend on it. KITTI 00 sequential, 2 against the one-thread
+  /// search before: 0.88x the wall time at 0.98x the CPU. 1 = in the mapping thread only. The threaded mode's
+  /// keyframes depend on how fast mapping is (doc/performance.md).
   int triangulationThreads = 2;
 
   // ---- SearchInNeighbors ----
