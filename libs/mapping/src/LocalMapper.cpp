@@ -485,8 +485,9 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
       else
         copy1->mapPointIds = kf1.mapPointIds;
       const KeyFrame copy2 = kf2;
+      const int threads = params_.triangulationThreads;
       if (!runOutsideMapLock(
-              [&] { matches = searchForTriangulation(*copy1, copy2, F12, params_, triangulationSearch_, params_.triangulationThreads); }))
+              [&] { matches = searchForTriangulation(*copy1, copy2, F12, params_, triangulationSearch_, threads); }))
         return {};  // the map was reset: kfId is gone
     }
     const geometry::Matrix34d P1 = geometry::projectionMatrix(K1, R1, t1), P2 = geometry::projectionMatrix(K2, R2, t2);

@@ -82,6 +82,14 @@ RandomScene randomScene(std::mt19937& rng, int n, Descriptor&& descriptor) {
   return s;
 }
 
+/// 2000 points carrying only 40 distinct descriptors, copied exactly: many candidates at the same best distance.
+RandomScene exactTiesScene(std::mt19937& rng) {
+  std::vector<cv::Mat> pool;
+  for (int k = 0; k < 40; ++k) pool.push_back(randomDescriptor(rng));
+  return randomScene(
+      rng, 2000, [&](int i, const std::vector<cv::Mat>&) { return pool[static_cast<std::size_t>(i) % pool.size()]; });
+}
+
 }  // namespace
 
 TEST(TriangulationSearch, GuidedFindsExactlyTheExhaustiveMatches) {
@@ -129,10 +137,7 @@ TEST(TriangulationSearch, GuidedFindsTheExhaustiveMatchesAmongExactTies) {
   // at the same best distance, in cells the guided search visits out of index order. The exhaustive scan keeps the
   // lowest index; the guided one must too, also when a third tie comes after the second-best equals the best.
   std::mt19937 rng(11);
-  std::vector<cv::Mat> pool;
-  for (int k = 0; k < 40; ++k) pool.push_back(randomDescriptor(rng));
-  const RandomScene scene = randomScene(
-      rng, 2000, [&](int i, const std::vector<cv::Mat>&) { return pool[static_cast<std::size_t>(i) % pool.size()]; });
+  const RandomScene scene = exactTiesScene(rng);
   const auto& [points, descriptors, angles] = scene;
   LocalMappingParams params;
   params.checkOrientation = false;
@@ -208,10 +213,7 @@ TEST(TriangulationSearch, ThreadsSplitTheSearchWithoutChangingItsMatches) {
   // Exact ties (40 descriptors over 2000 points): a kf2 keypoint is the best candidate of several kf1 keypoints,
   // often in different threads' runs, and only the first in ascending kf1 order may take it.
   std::mt19937 rng(19);
-  std::vector<cv::Mat> pool;
-  for (int k = 0; k < 40; ++k) pool.push_back(randomDescriptor(rng));
-  const RandomScene scene = randomScene(
-      rng, 2000, [&](int i, const std::vector<cv::Mat>&) { return pool[static_cast<std::size_t>(i) % pool.size()]; });
+  const RandomScene scene = exactTiesScene(rng);
   const auto& [points, descriptors, angles] = scene;
   const map::KeyFrame kf1 = keyFrameAt(pose({0, 0, 0}, {0, 0, 0}), points, descriptors, angles, rng);
   const map::KeyFrame kf2 = keyFrameAt(pose({0.6, 0.5, 0.8}, {0.01, 0.05, 0.08}), points, descriptors, angles, rng);

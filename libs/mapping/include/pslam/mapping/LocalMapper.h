@@ -92,7 +92,8 @@ struct LocalMappingParams {
     PSLAM_FIELD(v, chi2Threshold, greaterThan(0), "reprojection test chi2 * sigma^2 (2 DoF, 95 %)");
     PSLAM_FIELD(v, scaleConsistencyFactor, atLeast(1), "ratioFactor = this * scale factor");
     PSLAM_FIELD(v, epipolarMinDistancePixels, atLeast(0), "reject matches nearer the epipole (px x scale)");
-    PSLAM_FIELD(v, triangulationThreads, atLeast(1), "threads of the triangulation search (the same matches for any number)");
+    PSLAM_FIELD(v, triangulationThreads, atLeast(1),
+                "threads of the triangulation search (the same matches for any number)");
     PSLAM_FIELD(v, fusionNeighbours, atLeast(0), "first-order neighbours of Fuse (monocular 20)");
     PSLAM_FIELD(v, fusionSecondOrderNeighbours, atLeast(0), "per first-order neighbour");
     PSLAM_FIELD(v, fusionRadiusPixels, greaterThan(0), "Fuse search radius th x scale^level (th = 3)");
