@@ -38,7 +38,9 @@ InitializationOutcome ManhattanInitializer::takeAsReference(Frame& current, cons
 InitializationOutcome ManhattanInitializer::skip(Frame& current, const std::string& why) {
   // §4.4.1: "we discard the second frame and keep searching ... If too many frames are skipped we reset the
   // first frame and start over again".
-  if (++skipped_ > params_.manhattan.maxSkippedFrames)
+  const double maxSeconds = params_.manhattan.maxSkippedSeconds;
+  const bool tooLate = maxSeconds > 0 && reference_ && current.timestamp - reference_->timestamp > maxSeconds;
+  if (++skipped_ > params_.manhattan.maxSkippedFrames || tooLate)
     return takeAsReference(current, why + "; " + std::to_string(skipped_ - 1) + " frames skipped, reference replaced");
   InitializationOutcome out;
   out.matches = diag_.matches;

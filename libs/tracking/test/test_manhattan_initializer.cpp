@@ -211,3 +211,30 @@ TEST(ManhattanInitializer, TooFewTranslationInliersSkipTheFrameThenReplaceTheRef
   }
   EXPECT_EQ(map.numKeyFrames(), 0u);
 }
+
+TEST(ManhattanInitializer, AtALowFrameRateTheReferenceIsReplacedAfterMaxSkippedSecondsNotFrames) {
+  // Frames 0.67 s apart (TUM fr3_cabinet every 20th frame) that keep failing: the reference is replaced once a
+  // skipped frame is more than maxSkippedSeconds after it, long before maxSkippedFrames (30) are skipped; with the
+  // time limit off only the frame count applies.
+  const Pair p = makePair(30, rotation(0, 10, 0), Eigen::Vector3d(0.1, 0, 0), 4);
+  for (const double maxSeconds : {1.0, 0.0}) {
+    SCOPED_TRACE("maxSkippedSeconds " + std::to_string(maxSeconds));
+    tracking::InitializerParams P = params15();
+    P.manhattan.maxSkippedSeconds = maxSeconds;
+    P.manhattan.ransac.inlierThreshold = 5e-4;
+    tracking::ManhattanInitializer init(kCamera, P, optimize::BundleAdjustmentParams{});
+    std::mt19937 rng(1);
+    map::Map map;
+    tracking::Frame f0 = makeFrame(p, Eigen::Isometry3d::Identity(), 0, true);
+    init.process(f0, map, rng);
+    for (std::size_t k = 1; k <= 3; ++k) {
+      tracking::Frame f = makeFrame(p, p.T_cur_ref, k, true, rotation(3, 0, 0));  // 3 deg off: skipped
+      f.timestamp = 0.67 * static_cast<double>(k);
+      const tracking::InitializationOutcome out = init.process(f, map, rng);
+      EXPECT_FALSE(out.initialized);
+      const bool replaced = maxSeconds > 0 && k == 2;  // 1.34 s after the reference
+      EXPECT_NE(out.message.find(replaced ? "reference replaced" : "frame skipped"), std::string::npos)
+          << "frame " << k << ": " << out.message;
+    }
+  }
+}

@@ -36,6 +36,10 @@ struct ManhattanInitParams {
   double maxRotationDeg = 40.0;
   /// Frames skipped (too few matches / inliers / points) before the reference is replaced (§4.4.1).
   int maxSkippedFrames = 30;
+  /// ... or once a skipped frame is this much later than the reference (s; 0 = no limit): the views drift apart
+  /// with time, not with the frame count. 1 s is 30 frames at 30 Hz; at a low rate (TUM fr3_cabinet every 20th
+  /// frame, 0.67 s apart) it replaces the reference at the second frame that fails.
+  double maxSkippedSeconds = 1.0;
   manhattan::TranslationRansacParams ransac;
 
   template <class V>
@@ -49,6 +53,7 @@ struct ManhattanInitParams {
     PSLAM_FIELD(v, minMedianParallaxDeg, inRightOpen(0, 90), "median parallax of the pairs below this = rotation only (deg)");
     PSLAM_FIELD(v, maxRotationDeg, inOpen(0, 45), "largest rotation between the initialization frames (deg)");
     PSLAM_FIELD(v, maxSkippedFrames, atLeast(1), "skipped frames before the reference frame is replaced");
+    PSLAM_FIELD(v, maxSkippedSeconds, atLeast(0), "... or a skipped frame this much later than the reference (s), 0 = off");
     PSLAM_NESTED(v, ransac);
   }
 };
