@@ -30,14 +30,16 @@ if command -v ccache >/dev/null 2>&1; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCH
 if [[ $SCOPE == thread ]]; then
   # TSan cannot share a build with ASan. -O1 as below. Ceres runs single-threaded in every config
   # ([BundleAdjustment] numThreads = 1); OpenCV's and OpenMP's thread pools are switched off below, so the only
-  # threads are ours: tracking and the mapping thread (the H/F initializer's two std::async tasks as well).
+  # threads are ours: tracking, the mapping thread and a loop's global BA (the H/F initializer's two std::async
+  # tasks as well).
   BUILD_DIR=${SANITIZE_BUILD_DIR:-build-tsan}
   FLAGS="-fsanitize=thread -fno-omit-frame-pointer -O1 -g1"
   start=$(date +%s)
   cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Tsan -DCMAKE_CXX_FLAGS_TSAN="$FLAGS" \
     -DCMAKE_EXE_LINKER_FLAGS_TSAN=-fsanitize=thread -DCMAKE_SHARED_LINKER_FLAGS_TSAN=-fsanitize=thread \
     -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
-  cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper test_rawlog
+  cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper test_rawlog \
+    test_global_ba_writeback test_places_e2e
   built=$(date +%s)
   export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}
   export OPENCV_FOR_THREADS_NUM=1
@@ -50,6 +52,9 @@ if [[ $SCOPE == thread ]]; then
   ctest --test-dir "$BUILD_DIR" -R '^test_local_mapper$' --output-on-failure
   # slam-run's frames read ahead in a thread of their own (datasets::PrefetchingRawlogReader).
   GTEST_FILTER='PrefetchingRawlogReader.*' ctest --test-dir "$BUILD_DIR" -R '^test_rawlog$' --output-on-failure
+  # A loop's global BA on a thread of its own (libs/loopclosing), written back by the mapping thread.
+  ctest --test-dir "$BUILD_DIR" -R '^test_global_ba_writeback$' --output-on-failure
+  GTEST_FILTER='*Threaded*' ctest --test-dir "$BUILD_DIR" -R '^test_places_e2e$' --output-on-failure
   done_=$(date +%s)
   echo "run-sanitizers (thread): build $((built - start)) s, tests $((done_ - built)) s"
   exit 0

@@ -35,7 +35,10 @@ nlohmann::json LoopReport::toJson() const {
     j["corrected_keyframes"] = correctedKeyFrames;
     j["fused_points"] = fusedPoints;
     j["essential_graph_edges"] = essentialGraphEdges;
+    j["global_ba_ms"] = globalBaMs;
+    j["global_ba_asynchronous"] = globalBaAsynchronous;
   }
+  if (skippedForGlobalBa) j["skipped_for_global_ba"] = true;
   return j;
 }
 
@@ -45,7 +48,10 @@ LoopCloser::LoopCloser(map::Map& map, const LoopClosingParams& params, const opt
   params_.check();
 }
 
+LoopCloser::~LoopCloser() = default;  // a running global BA is waited for (std::future)
+
 void LoopCloser::reset() {
+  pending_.reset();  // waits for a running global BA; its result belongs to the old map
   database_.clear();
   groups_.clear();
   lastLoopKeyFrame_ = map::kNoKeyFrame;
@@ -203,6 +209,8 @@ bool LoopCloser::verify(KeyFrameId kfId, KeyFrameId candId, Sim3& S_cw, std::map
 
 void LoopCloser::correct(KeyFrameId kfId, KeyFrameId matched, const Sim3& S_cw_corrected,
                          const std::map<std::size_t, MapPointId>& loopMatches, LoopReport& report) {
+  std::map<KeyFrameId, Eigen::Isometry3d> posesBefore;
+  for (const auto& [id, kf] : map_.keyFrames()) posesBefore[id] = kf.T_cam_world;
   // 1. The keyframe's neighbourhood moves with it: S_iw corrected = S_ic S_cw (ORB-SLAM's CorrectLoop).
   std::vector<KeyFrameId> connected = map_.covisibleKeyFrames(kfId);
   connected.insert(connected.begin(), kfId);
@@ -324,12 +332,108 @@ void LoopCloser::correct(KeyFrameId kfId, KeyFrameId matched, const Sim3& S_cw_c
   }
   loopEdges_.emplace_back(kfId, matched);
 
-  // 5. Global BA refines everything (ORB-SLAM runs it in a thread; here in place).
-  if (params_.globalBAIterations > 0) {
-    optimize::BundleAdjustmentParams ba = ba_;
-    ba.globalIterations = params_.globalBAIterations;
-    optimize::globalBundleAdjustment(map_, ba);
+  // 5. Global BA refines everything.
+  globalBundleAdjustment(posesBefore, report);
+}
+
+void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isometry3d>& posesBeforeCorrection,
+                                        LoopReport& report) {
+  auto moved = [&](const LoopReport& r, const std::map<KeyFrameId, Eigen::Isometry3d>& before) {
+    if (keyFramesMoved_) keyFramesMoved_(r, before);
+  };
+  if (params_.globalBAIterations <= 0) {
+    moved(report, posesBeforeCorrection);
+    return;
   }
+  optimize::BundleAdjustmentParams ba = ba_;
+  ba.globalIterations = params_.globalBAIterations;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!asynchronousGlobalBa_) {
+    optimize::globalBundleAdjustment(map_, ba);
+    report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    moved(report, posesBeforeCorrection);
+    return;
+  }
+  // Threaded: tracking and local mapping go on in the corrected map while the BA runs on a copy of it (ORB-SLAM's
+  // RunGlobalBundleAdjustment), so they learn of the correction now.
+  moved(report, posesBeforeCorrection);
+  startGlobalBundleAdjustment(report.keyFrame);
+  report.globalBaAsynchronous = true;
+  report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void LoopCloser::startGlobalBundleAdjustment(KeyFrameId loopKeyFrame) {
+  require(asynchronousGlobalBa_, "loop closing", "startGlobalBundleAdjustment needs setAsynchronousGlobalBa");
+  require(!pending_, "loop closing", "a global BA is already running");
+  optimize::BundleAdjustmentParams ba = ba_;
+  ba.globalIterations = std::max(params_.globalBAIterations, 1);
+  pending_ = std::make_unique<PendingGlobalBa>();
+  PendingGlobalBa* job = pending_.get();
+  job->problem = optimize::makeGlobalProblem(map_);
+  job->loopKeyFrame = loopKeyFrame;
+  job->started = std::chrono::steady_clock::now();
+  const std::function<void()> ready = globalBaReady_;
+  // The job owns the copy; the thread reads only it. pending_ (and so the future) outlives the thread: reset(),
+  // the destructor and applyGlobalBundleAdjustment() all wait for it.
+  job->result = std::async(std::launch::async, [job, ba, ready] {
+    optimize::BAResult r = optimize::globalBundleAdjustment(job->problem, ba);
+    if (ready) ready();
+    return r;
+  });
+}
+
+std::optional<nlohmann::json> LoopCloser::applyGlobalBundleAdjustment() {
+  if (!pending_) return std::nullopt;
+  const std::unique_ptr<PendingGlobalBa> job = std::move(pending_);
+  const optimize::BAResult result = job->result.get();
+  const auto t0 = std::chrono::steady_clock::now();
+  std::map<KeyFrameId, Eigen::Isometry3d> before;
+  for (const auto& [id, kf] : map_.keyFrames()) before[id] = kf.T_cam_world;
+  int keyFramesSet = 0, keyFramesCulled = 0, keyFramesFollowed = 0, pointsSet = 0, pointsSkipped = 0;
+  int pointsAtInfinity = 0;
+  for (const auto& [id, T] : result.poses) {
+    if (!map_.hasKeyFrame(id)) {
+      ++keyFramesCulled;
+      continue;
+    }
+    map_.setKeyFramePose(id, T);
+    ++keyFramesSet;
+  }
+  for (const auto& [id, kf] : map_.keyFrames()) {  // ascending ids: a parent is settled before its children
+    if (job->problem.keyframes.count(id) || kf.parent == map::kNoKeyFrame || !map_.hasKeyFrame(kf.parent)) continue;
+    const Eigen::Isometry3d T_child_parent = before.at(id) * before.at(kf.parent).inverse();
+    map_.setKeyFramePose(id, T_child_parent * map_.keyFrame(kf.parent).T_cam_world);
+    ++keyFramesFollowed;
+  }
+  for (const auto& [id, rho] : result.inverseDepths) {
+    // A point keeps its anchor-relative inverse depth; one fused away or re-anchored since the copy is left as it
+    // is, and so is one the BA put at or behind its anchor's infinity (rho <= 0: no finite position to give it).
+    if (!map_.hasMapPoint(id) || map_.mapPoint(id).anchorKeyFrame != job->problem.points.at(id).anchor) {
+      ++pointsSkipped;
+      continue;
+    }
+    if (!(rho > 0.0) || !std::isfinite(rho)) {
+      ++pointsAtInfinity;
+      continue;
+    }
+    map_.setInverseDepth(id, rho);
+    ++pointsSet;
+  }
+  for (const auto& [id, p] : map_.mapPoints()) map_.updateNormalAndDepth(id);
+  LoopReport unscaled;
+  unscaled.keyFrame = job->loopKeyFrame;
+  for (const auto& [id, T] : before) unscaled.keyFrameScales[id] = 1.0;
+  if (keyFramesMoved_) keyFramesMoved_(unscaled, before);
+  const auto now = std::chrono::steady_clock::now();
+  return nlohmann::json{{"loop_keyframe", job->loopKeyFrame},
+                        {"global_ba_ms", std::chrono::duration<double, std::milli>(now - job->started).count()},
+                        {"apply_ms", std::chrono::duration<double, std::milli>(now - t0).count()},
+                        {"keyframes_set", keyFramesSet},
+                        {"keyframes_culled_meanwhile", keyFramesCulled},
+                        {"keyframes_made_meanwhile", keyFramesFollowed},
+                        {"points_set", pointsSet},
+                        {"points_fused_or_reanchored_meanwhile", pointsSkipped},
+                        {"points_left_at_non_positive_inverse_depth", pointsAtInfinity}};
 }
 
 LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
@@ -339,6 +443,12 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
   for (const places::KeyFrameKey id : database_.keyFrames())
     if (!map_.hasKeyFrame(id)) database_.erase(id);
   if (!params_.enabled || !map_.hasKeyFrame(kfId) || map_.keyFrame(kfId).bow.empty()) return report;
+  if (pending_) {
+    // Threaded: the last loop's global BA still runs; the keyframe joins the database without a search.
+    database_.add(kfId, map_.keyFrame(kfId).bow);
+    report.skippedForGlobalBa = true;
+    return report;
+  }
   const bool tooEarly = static_cast<int>(map_.numKeyFrames()) < params_.minMapKeyFrames ||
                         (lastLoopKeyFrame_ != map::kNoKeyFrame &&
                          kfId < lastLoopKeyFrame_ + static_cast<KeyFrameId>(params_.minKeyFramesBetweenLoops));

@@ -124,19 +124,8 @@ struct System::Impl {
       // Local mapping holds the map lock except while it searches keyframe pairs for triangulation and solves
       // local BA: those run on copies, with the lock released so tracking goes on. A reset meanwhile (a new map
       // generation) ends that keyframe's mapping.
-      mapper->setOutsideMapLock([this](const std::function<void()>& computation) {
-        const int before = generation;
-        struct Relock {
-          std::unique_lock<std::mutex>& lock;
-          ~Relock() { lock.lock(); }
-        };
-        mappingLock->unlock();
-        {
-          Relock relock{*mappingLock};
-          computation();
-        }
-        return generation == before;
-      });
+      mapper->setOutsideMapLock(
+          [this](const std::function<void()>& computation) { return runOutsideMapLock(computation); });
       mapper->setNewPointsReady([this](map::KeyFrameId) {
         {
           std::lock_guard<std::mutex> lk(queueMutex);
@@ -146,6 +135,58 @@ struct System::Impl {
       });
       worker = std::thread([this] { mappingLoop(); });
     }
+  }
+
+  /// Threaded mode, on the mapping thread (which holds the map lock): runs `computation`, which reads only copies
+  /// of map data, with the lock released. False when tracking reset the map meanwhile (a new generation).
+  bool runOutsideMapLock(const std::function<void()>& computation) {
+    const int before = generation;
+    struct Relock {
+      std::unique_lock<std::mutex>& lock;
+      ~Relock() { lock.lock(); }
+    };
+    mappingLock->unlock();
+    {
+      Relock relock{*mappingLock};
+      computation();
+    }
+    return generation == before;
+  }
+
+  /// Threaded: called on the global BA's thread when its result is ready; wakes the mapping thread.
+  void onGlobalBaReady() {
+    {
+      std::lock_guard<std::mutex> lk(queueMutex);
+      globalBa = GlobalBaState::Ready;
+    }
+    queueCv.notify_all();
+  }
+
+  /// Threaded, on the mapping thread with the map lock held, between keyframes: writes a finished global BA back.
+  void applyGlobalBa() {
+    if (!loopCloser) return;
+    if (std::optional<nlohmann::json> applied = loopCloser->applyGlobalBundleAdjustment()) {
+      (*applied)["generation"] = generation;
+      mappingTimings.add("global_ba", (*applied)["global_ba_ms"].get<double>());
+      mappingTimings.add("global_ba_apply", (*applied)["apply_ms"].get<double>());
+      globalBaLog.push_back(std::move(*applied));
+    }
+  }
+
+  /// Loop closing moved keyframes (LoopCloser::KeyFramesMoved, map lock held): frames are kept relative to their
+  /// reference keyframe, so their offsets follow its change of scale, and the tracker's last frame follows its
+  /// reference keyframe.
+  void onLoopKeyFramesMoved(const loopclosing::LoopReport& lr,
+                            const std::map<map::KeyFrameId, Eigen::Isometry3d>& posesBefore) {
+    for (TrackedPose& p : poses) {
+      const auto sc = lr.keyFrameScales.find(p.reference);
+      if (p.generation == generation && sc != lr.keyFrameScales.end()) p.T_cam_ref.translation() /= sc->second;
+    }
+    const map::KeyFrameId ref = tracker->referenceKeyFrame();
+    const auto before = posesBefore.find(ref);
+    if (before == posesBefore.end() || !map.hasKeyFrame(ref)) return;
+    const auto sc = lr.keyFrameScales.find(ref);
+    tracker->onKeyFramesMoved(ref, before->second, sc != lr.keyFrameScales.end() ? sc->second : 1.0);
   }
 
   /// The frame's Manhattan frame from its NORMALS (Algorithm 4, labels tracked from frame to frame).
@@ -230,25 +271,18 @@ struct System::Impl {
       }
       // ---- loop closing: the keyframe is queried for a place seen long before, after its local mapping
       if (loopCloser && map.hasKeyFrame(kf)) {
-        const map::KeyFrameId ref = tracker->referenceKeyFrame();
-        const std::optional<Eigen::Isometry3d> refBefore =
-            map.hasKeyFrame(ref) ? std::optional<Eigen::Isometry3d>(map.keyFrame(ref).T_cam_world) : std::nullopt;
-        const loopclosing::LoopReport lr = loopCloser->processKeyFrame(kf);
+        const loopclosing::LoopReport lr = loopCloser->processKeyFrame(kf);  // calls onLoopKeyFramesMoved
         mappingTimings.add("loop_closing", lr.ms);
-        if (lr.candidates > 0) {
+        if (lr.closed && !lr.globalBaAsynchronous) mappingTimings.add("global_ba", lr.globalBaMs);
+        if (lr.candidates > 0 || lr.skippedForGlobalBa) {
           nlohmann::json j = lr.toJson();
           j["generation"] = generation;
           loops.push_back(std::move(j));
         }
-        if (lr.closed) {
-          ++counters.loopsClosed;
-          // Frames are kept relative to their reference keyframe: their offsets follow its change of scale.
-          for (TrackedPose& p : poses) {
-            const auto sc = lr.keyFrameScales.find(p.reference);
-            if (p.generation == generation && sc != lr.keyFrameScales.end()) p.T_cam_ref.translation() /= sc->second;
-          }
-          const auto sc = lr.keyFrameScales.find(ref);
-          if (refBefore) tracker->onKeyFramesMoved(ref, *refBefore, sc != lr.keyFrameScales.end() ? sc->second : 1.0);
+        if (lr.closed) ++counters.loopsClosed;
+        if (lr.globalBaAsynchronous) {
+          std::lock_guard<std::mutex> lk(queueMutex);
+          if (globalBa == GlobalBaState::None) globalBa = GlobalBaState::Running;  // Ready when it was that quick
         }
       }
       // Every step of a keyframe's local mapping (issue: mapping cost per keyframe, doc/performance.md).
@@ -267,7 +301,24 @@ struct System::Impl {
       std::pair<int, QueuedKeyFrame> item;
       {
         std::unique_lock<std::mutex> lk(queueMutex);
-        queueCv.wait(lk, [&] { return stop || !queue.empty(); });
+        queueCv.wait(lk, [&] {
+          return globalBa == GlobalBaState::Ready || !queue.empty() || (stop && globalBa == GlobalBaState::None);
+        });
+        if (globalBa == GlobalBaState::Ready) {
+          // A loop's global BA finished: written back between two keyframes, with the map lock held.
+          busy = true;
+          lk.unlock();
+          {
+            std::lock_guard<std::mutex> mk(mapMutex);
+            applyGlobalBa();
+          }
+          lk.lock();
+          busy = false;
+          globalBa = GlobalBaState::None;
+          lk.unlock();
+          queueCv.notify_all();
+          continue;
+        }
         if (queue.empty()) return;  // stop requested and nothing left
         item = queue.front();
         queue.pop_front();
@@ -291,17 +342,27 @@ struct System::Impl {
     }
   }
 
-  void waitForMapping() {
+  /// Threaded: waits until the mapping thread has mapped every queued keyframe and, unless `localMappingOnly`, a
+  /// loop's global BA is written back (outputs, map loading, resets). Tracking's urgent wait for a keyframe waits
+  /// for local mapping only: a global BA runs on a thread of its own and local mapping goes on beside it.
+  void waitForMapping(bool localMappingOnly = false) {
     if (!threaded) return;
     std::unique_lock<std::mutex> lk(queueMutex);
-    queueCv.wait(lk, [&] { return queue.empty() && !busy; });
+    queueCv.wait(lk, [&] {
+      return queue.empty() && !busy && (localMappingOnly || globalBa == GlobalBaState::None);
+    });
   }
 
   /// A new map generation: poses of earlier maps are never mixed with the new one.
   void newGeneration() {
     ++generation;
     poses.clear();
-    if (loopCloser) loopCloser->reset();
+    if (loopCloser) {
+      loopCloser->reset();  // waits for a running global BA and drops it
+      std::lock_guard<std::mutex> lk(queueMutex);
+      globalBa = GlobalBaState::None;
+    }
+    queueCv.notify_all();
   }
 
   SlamParams params;
@@ -339,6 +400,10 @@ struct System::Impl {
   std::deque<std::pair<int, QueuedKeyFrame>> queue;  ///< (generation, keyframe)
   std::unique_lock<std::mutex>* mappingLock = nullptr;  ///< the mapping thread's hold of mapMutex
   bool busy = false;
+  /// Threaded: a loop's global BA on its own thread (LoopCloser::setAsynchronousGlobalBa), guarded by queueMutex.
+  enum class GlobalBaState { None, Running, Ready };
+  GlobalBaState globalBa = GlobalBaState::None;
+  nlohmann::json globalBaLog = nlohmann::json::array();  ///< report.json "global_ba": one entry per BA written back
   bool stop = false;
   std::thread worker;
 };
@@ -374,9 +439,17 @@ void System::start(const geometry::PinholeCamera& camera) {
   if (vocabulary_) {
     impl_->tracker->setVocabulary(vocabulary_, params_.places);
     if (params_.places.triangulation) impl_->mapper->setTriangulationSearch(mapping::TriangulationSearch::VocabularyNode);
-    if (params_.loopClosing.enabled)
+    if (params_.loopClosing.enabled) {
       impl_->loopCloser = std::make_unique<loopclosing::LoopCloser>(impl_->map, params_.loopClosing,
                                                                     params_.bundleAdjustment, options_.seed);
+      Impl* impl = impl_.get();
+      impl_->loopCloser->setKeyFramesMoved(
+          [impl](const loopclosing::LoopReport& lr, const std::map<map::KeyFrameId, Eigen::Isometry3d>& before) {
+            impl->onLoopKeyFramesMoved(lr, before);
+          });
+      // Threaded: the global BA of a closed loop runs on a thread of its own; the mapping thread writes it back.
+      if (threaded_) impl_->loopCloser->setAsynchronousGlobalBa([impl] { impl->onGlobalBaReady(); });
+    }
   }
   impl_->mappingEnabled = mappingEnabled_;
   impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
@@ -539,7 +612,7 @@ TrackResult System::track(const datasets::Frame& input) {
   // idle, so the next frame can make that keyframe (its BA was asked to stop above).
   if (s.threaded && res.keyFrameUrgent && s.mappingEnabled) {
     ScopedStage wait(s.trackingTimings, "wait_for_mapping_urgent");
-    s.waitForMapping();
+    s.waitForMapping(true);
   }
 
   // Bookkeeping of the trajectory and the counters (under the map lock when threaded: the getters take it).
@@ -756,6 +829,7 @@ nlohmann::json System::report() const {
     r["mapping"] = mappingLog();
     r["loops"] = loops();
     std::lock_guard<std::mutex> mk(impl_->mapMutex);
+    r["global_ba"] = impl_->globalBaLog;
     r["frames"] = impl_->frames;
   } else {
     r["frames"] = nlohmann::json::array();

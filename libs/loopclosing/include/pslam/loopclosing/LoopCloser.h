@@ -5,9 +5,13 @@
 // candidate's neighbourhood), and the loop is corrected: the Sim(3) correction propagated to the keyframe's
 // neighbourhood, the duplicated points fused, the essential graph (spanning tree, covisibility >= 100, loop
 // edges) optimized over Sim(3), and a global bundle adjustment. Sequential: the caller holds the map.
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
+#include <future>
 #include <memory>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -18,6 +22,7 @@
 #include "pslam/core/Params.h"
 #include "pslam/geometry/Sim3.h"
 #include "pslam/map/Map.h"
+#include "pslam/optimize/BundleAdjustment.h"
 #include "pslam/optimize/Params.h"
 #include "pslam/places/KeyFrameDatabase.h"
 
@@ -69,6 +74,13 @@ struct LoopReport {
   double correctionMetres = 0.0;    ///< how far the keyframe's centre moved
   int correctedKeyFrames = 0, fusedPoints = 0, essentialGraphEdges = 0;
   double ms = 0.0;
+  /// The global BA of a closed loop: its time (sequential: in place; threaded: the time until it was started on
+  /// its own thread, the BA itself is in GlobalBaReport) and whether it runs asynchronously.
+  double globalBaMs = 0.0;
+  bool globalBaAsynchronous = false;
+  /// Threaded: a loop found while the previous loop's global BA still runs is not looked for (ORB-SLAM aborts
+  /// that BA instead); the keyframe joins the database.
+  bool skippedForGlobalBa = false;
   /// A closed loop's scale change of every keyframe: camera-frame lengths of keyframe k before the correction are
   /// keyFrameScales[k] x those after (what frames tracked relative to k rescale by). Not in toJson().
   std::map<map::KeyFrameId, double> keyFrameScales;
@@ -85,8 +97,38 @@ class LoopCloser {
   /// Loop detection, verification and correction for keyframe `kf` (after local mapping processed it). The
   /// keyframe joins the loop database either way.
   LoopReport processKeyFrame(map::KeyFrameId kf);
-  /// Forgets the database and the consistency state (a new map).
+
+  /// Threaded mode: the global BA of a closed loop runs on a thread of its own (ORB-SLAM's fourth thread) on a copy
+  /// of the map, so that local mapping and tracking go on while it runs; `ready` is called on that thread when its
+  /// result is ready, and applyGlobalBundleAdjustment() writes it back. Without it (sequential mode, the default)
+  /// the BA runs in place, and the results are the same bit for bit as before.
+  void setAsynchronousGlobalBa(std::function<void()> ready) {
+    asynchronousGlobalBa_ = true;
+    globalBaReady_ = std::move(ready);
+  }
+  /// Building block (public for tests): copies the map and starts its global BA on a thread of its own (needs
+  /// setAsynchronousGlobalBa), for the loop closed at `loopKeyFrame`.
+  void startGlobalBundleAdjustment(map::KeyFrameId loopKeyFrame);
+  /// A global BA started by a loop and not yet written back.
+  bool globalBaPending() const { return pending_ != nullptr; }
+  /// Writes a finished global BA back (map lock held, between two keyframes' local mapping; waits for the BA if it
+  /// still runs): the keyframes and points of the copy take its result, unless the map culled them or moved a
+  /// point to another anchor meanwhile; keyframes made since follow the change of their spanning-tree parent (as
+  /// ORB-SLAM propagates a global BA's correction), and the points anchored in them with them. Local BA results of
+  /// the keyframes in the copy made meanwhile are overwritten (ORB-SLAM alike). Calls the keyframes-moved
+  /// callback. Empty when no global BA was pending.
+  std::optional<nlohmann::json> applyGlobalBundleAdjustment();
+  /// Called, map lock held, when a closed loop's keyframe poses have changed, with the report (its
+  /// keyFrameScales) and the keyframe poses just before the change (every keyframe of the map): whoever keeps poses
+  /// relative to keyframes (the trajectory, the tracker's last frame) re-expresses them. Without a runner it is
+  /// called once, after the global BA; asynchronously, once after the correction (before tracking goes on in the
+  /// corrected map) and once when the global BA is written back (scales 1: the BA keeps the map's scale).
+  using KeyFramesMoved = std::function<void(const LoopReport& report,
+                                            const std::map<map::KeyFrameId, Eigen::Isometry3d>& posesBefore)>;
+  void setKeyFramesMoved(KeyFramesMoved callback) { keyFramesMoved_ = std::move(callback); }
+  /// Forgets the database and the consistency state (a new map); a running global BA is waited for and dropped.
   void reset();
+  ~LoopCloser();
   int loopsClosed() const { return loopsClosed_; }
 
  private:
@@ -107,6 +149,9 @@ class LoopCloser {
                                                             const std::vector<map::MapPointId>& points,
                                                             const std::set<std::size_t>& taken, float radius) const;
   bool usablePoint(map::MapPointId id) const;
+  /// Step 5 of correct(): the global BA, in place or started on its own thread; calls keyFramesMoved_.
+  void globalBundleAdjustment(const std::map<map::KeyFrameId, Eigen::Isometry3d>& posesBeforeCorrection,
+                              LoopReport& report);
 
   map::Map& map_;
   LoopClosingParams params_;
@@ -118,6 +163,16 @@ class LoopCloser {
   /// Loop edges of the loops closed so far (kept in the essential graph of later loops).
   std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>> loopEdges_;
   int loopsClosed_ = 0;
+  KeyFramesMoved keyFramesMoved_;
+  bool asynchronousGlobalBa_ = false;
+  std::function<void()> globalBaReady_;
+  struct PendingGlobalBa {
+    optimize::BAProblem problem;
+    std::future<optimize::BAResult> result;
+    map::KeyFrameId loopKeyFrame = map::kNoKeyFrame;
+    std::chrono::steady_clock::time_point started;
+  };
+  std::unique_ptr<PendingGlobalBa> pending_;
 };
 
 }  // namespace pslam::loopclosing
