@@ -1,5 +1,6 @@
 #include "pslam/optimize/MapAdapter.h"
 
+#include <cmath>
 #include <set>
 
 #include "pslam/core/Error.h"
@@ -70,8 +71,14 @@ MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BARe
   std::set<map::MapPointId> touched;
   for (const auto& [id, rho] : result.inverseDepths) {
     if (!map.hasMapPoint(id)) continue;
-    // The bearing is unchanged; a negative rho (behind the anchor) is left for the outlier handling below.
-    map.setInverseDepth(id, std::max(rho, 0.0));
+    // The bearing is unchanged. A rho <= 0 (at or behind the anchor's infinity) has no finite position: setting
+    // it (as 0, before) made an infinitely far point that the next pose optimization refused as non-finite input.
+    // The point keeps its depth; its outlier observations go below.
+    if (!(rho > 0.0) || !std::isfinite(rho)) {
+      ++s.pointsNotMoved;
+      continue;
+    }
+    map.setInverseDepth(id, rho);
     touched.insert(id);
     ++s.pointsUpdated;
   }

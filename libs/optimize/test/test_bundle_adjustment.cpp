@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <limits>
 
 #include <mrpt/config/CConfigFileMemory.h>
 
@@ -311,4 +312,32 @@ TEST(GlobalBA, ThroughTheMapTwoView) {
       const Eigen::Vector2d px = keyframe.camera.project(keyframe.T_cam_world * map.worldPosition(id));
       EXPECT_LT((px - keyframe.pixel(k)).norm(), 1e-3) << "point " << id << " keyframe " << kf;
     }
+}
+
+TEST(ApplyResult, APointTheBAPutAtOrBehindInfinityKeepsItsDepth) {
+  // An inverse depth <= 0 has no finite position: written as 0 it made an infinitely far point that the next
+  // frame's pose optimization refused (a threaded corridor-loop run stopped on it after a global BA).
+  SyntheticOptions opt;
+  opt.keyframes = 4;
+  opt.fixedKeyFrames = 1;
+  opt.points = 100;
+  const SyntheticBA s = makeSyntheticBA(opt);
+  pslam::map::Map map = mapFromSynthetic(s);
+  const BAProblem problem = makeGlobalProblem(map);
+  BAResult r = globalBundleAdjustment(problem, {});
+  ASSERT_GE(r.inverseDepths.size(), 3u);
+  auto it = r.inverseDepths.begin();
+  const pslam::map::MapPointId atInfinity = (it++)->first, behind = (it++)->first, notFinite = (it++)->first;
+  const double before[3] = {map.mapPoint(atInfinity).inverseDepth, map.mapPoint(behind).inverseDepth,
+                            map.mapPoint(notFinite).inverseDepth};
+  r.inverseDepths[atInfinity] = 0.0;
+  r.inverseDepths[behind] = -0.2;
+  r.inverseDepths[notFinite] = std::numeric_limits<double>::quiet_NaN();
+  const MapUpdateSummary u = applyResult(map, problem, r, false);
+  EXPECT_EQ(u.pointsNotMoved, 3);
+  EXPECT_EQ(u.pointsUpdated, static_cast<int>(r.inverseDepths.size()) - 3);
+  EXPECT_EQ(map.mapPoint(atInfinity).inverseDepth, before[0]);
+  EXPECT_EQ(map.mapPoint(behind).inverseDepth, before[1]);
+  EXPECT_EQ(map.mapPoint(notFinite).inverseDepth, before[2]);
+  for (const auto& [id, p] : map.mapPoints()) EXPECT_TRUE(map.worldPosition(id).allFinite()) << id;
 }

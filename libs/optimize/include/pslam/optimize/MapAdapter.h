@@ -26,10 +26,12 @@ struct MapUpdateSummary {
   int pointsUpdated = 0;
   int observationsErased = 0;
   int pointsErased = 0;  ///< points that lost their last observation
+  int pointsNotMoved = 0;  ///< points the BA put at or behind infinity (rho <= 0): their depth is left as it was
 };
 
 /// Writes poses and inverse depths into `map`, erases the outlier observations when eraseOutliers, and
-/// refreshes the normal / scale distances of the touched points.
+/// refreshes the normal / scale distances of the touched points. A point the BA put at or behind infinity
+/// (inverse depth <= 0 or not finite) keeps its depth: it has no finite position to take.
 MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BAResult& result,
                              bool eraseOutliers = true);
 
