@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "pslam/apps/SlamRunApp.h"
+#include "pslam/map/MapIO.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam_test/TestSupport.h"
 
@@ -37,8 +38,11 @@ const fs::path& corridorRawlog() {
   return rawlog;
 }
 
-apps::SlamRunSummary runSlam(const fs::path& out, const std::vector<std::string>& overrides) {
+apps::SlamRunSummary runSlam(const fs::path& out, const std::vector<std::string>& overrides,
+                             const fs::path& mapIn = {}, bool localization = false) {
   apps::SlamRunOptions o;
+  o.mapIn = mapIn;
+  o.localization = localization;
   o.overrides = overrides;
   o.config = kConfig;
   o.rawlog = corridorRawlog();
@@ -87,4 +91,37 @@ TEST(LinesE2E, CorridorTracksWithLineFactorsAndRepeatsBitForBit) {
   EXPECT_TRUE(report["timings"].contains("line_factors"));
   ASSERT_FALSE(report["mapping"].empty());
   EXPECT_GT(report["mapping"].back().value("lines", 0L), 0) << "no line left in the store";
+}
+
+TEST(LinesE2E, TheLinesAreSavedWithTheMapAndALoadedMapTracksWithThem) {
+  // map.slammap carries the line store (map extension "lines"): a localization run in the saved map tracks with
+  // line factors from its first frames (no line is created: the map is fixed) and saves the same bytes; a map whose
+  // line store is damaged is refused naming the file.
+  const fs::path a = tempRoot() / "lines_map", loc = tempRoot() / "lines_loc";
+  runSlam(a, {"Lines.enabled=true"});
+  const auto report = nlohmann::json::parse(readText(a / "report.json"));
+  const long lines = report["summary"].value("lines", 0L);
+  ASSERT_GT(lines, 0);
+  const auto s = runSlam(loc, {"Lines.enabled=true"}, a / "map.slammap", true);
+  EXPECT_EQ(readText(loc / "map.slammap"), readText(a / "map.slammap")) << "localization keeps the map, lines too";
+  const auto locReport = nlohmann::json::parse(readText(loc / "report.json"));
+  EXPECT_EQ(locReport["summary"].value("lines", -1L), lines) << locReport["summary"].dump();
+  long factors = 0, inliers = 0;
+  for (const auto& f : locReport["frames"]) {
+    factors += f["lines_factors"].get<long>();
+    inliers += f["lines_inliers"].get<long>();
+  }
+  EXPECT_GT(s.framesLocalized, static_cast<std::size_t>(kFrames / 2));
+  EXPECT_GT(inliers, 0) << "the loaded lines take part in tracking";
+  EXPECT_GT(inliers, factors / 2);
+
+  map::Map damaged = map::loadMap(a / "map.slammap");
+  ASSERT_NE(damaged.extension("lines"), nullptr);
+  damaged.setExtension("lines", damaged.extension("lines")->substr(0, 100));
+  const fs::path bad = tempRoot() / "lines_damaged.slammap";
+  map::saveMap(damaged, bad);
+  const std::string e = test_support::errorOf([&] { runSlam(tempRoot() / "lines_bad", {"Lines.enabled=true"}, bad); });
+  EXPECT_NE(e.find(bad.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("lines: truncated"), std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(tempRoot() / "lines_bad" / "map.slammap")) << "nothing written";
 }

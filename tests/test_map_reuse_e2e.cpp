@@ -206,7 +206,8 @@ TEST(MapReuse, BadMapsAreNamedAndNothingIsWritten) {
     mrpt::io::CFileGZOutputStream out(newer.string());
     out.Write(raw.data(), raw.size());
   }
-  expectRefused(newer, "unsupported .slammap format version 2", false);
+  static_assert(map::CSlamMapArchive::kFormatVersion == 2, "the message below names the next version");
+  expectRefused(newer, "unsupported .slammap format version 3", false);
 
   // The rawlog's camera differs from the map's (another focal length).
   const fs::path otherCamera = renderRoom(1, 2, 400.0);

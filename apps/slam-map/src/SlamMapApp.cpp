@@ -12,6 +12,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/eval/Plot.h"
 #include "pslam/landmarks/KeypointModel.h"
+#include "pslam/lines/LineFrontEnd.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/mapping/LocalMapper.h"
 
@@ -95,6 +96,21 @@ MapInfo mapInfo(const map::Map& map, const fs::path& file) {
   if (!file.empty() && fs::is_regular_file(file, ec)) info.fileBytes = fs::file_size(file, ec);
   info.formatVersion = map::CSlamMapArchive::kFormatVersion;
   info.vocabulary = map.vocabulary();
+  for (const auto& [name, bytes] : map.extensions()) info.extensions[name] = bytes.size();
+  if (const std::string* store = map.extension(lines::LineFrontEnd::kMapExtension); store && !map.keyFrames().empty()) {
+    const map::CameraIntrinsics& c = map.keyFrames().begin()->second.camera;
+    lines::LineFrontEnd front(lines::LinesParams{}, geometry::PinholeCamera(c.fx, c.fy, c.cx, c.cy, c.width, c.height));
+    try {
+      front.restore(*store, map);
+      info.lines = front.numLines();
+      info.lineKeyFrames = front.keyFrames().size();
+    } catch (const Error& e) {
+      info.linesError = e.what();
+    }
+  }
+  // "loop_edges" (libs/loopclosing): u64 count, then 16 bytes per edge.
+  if (const std::string* edges = map.extension("loop_edges"); edges && edges->size() >= sizeof(std::uint64_t))
+    info.loopEdges = (edges->size() - sizeof(std::uint64_t)) / 16;
   info.keyFrames = map.numKeyFrames();
   info.mapPoints = map.numMapPoints();
   if (!map.keyFrames().empty()) info.camera = map.keyFrames().begin()->second.camera;
@@ -148,7 +164,15 @@ nlohmann::json MapInfo::toJson() const {
   j["camera"] = {{"fx", camera.fx}, {"fy", camera.fy}, {"cx", camera.cx}, {"cy", camera.cy},
                  {"width", camera.width}, {"height", camera.height}};
   j["vocabulary"] = vocabulary;
-  j["lines"] = "not stored (line landmarks live only in the run)";
+  nlohmann::json ext = nlohmann::json::object();
+  for (const auto& [name, bytes] : extensions) ext[name] = bytes;
+  j["extensions"] = ext;
+  if (extensions.count("lines"))
+    j["lines"] = linesError.empty() ? nlohmann::json{{"lines", lines}, {"keyframes", lineKeyFrames}}
+                                    : nlohmann::json{{"error", linesError}};
+  else
+    j["lines"] = "none stored (a run without [Lines] enabled)";
+  j["loop_edges"] = loopEdges;
   j["keyframes"] = keyFrames;
   j["map_points"] = mapPoints;
   j["bad_points"] = badPoints;
@@ -178,7 +202,13 @@ std::string MapInfo::toText() const {
      << ", " << camera.width << "x" << camera.height << "\n";
   os << "vocabulary:   " << (vocabulary.empty() ? std::string("none recorded (built without one)") : vocabulary)
      << "\n";
-  os << "lines:        not stored (line landmarks live only in the run)\n";
+  if (!extensions.count("lines"))
+    os << "lines:        none stored (a run without [Lines] enabled)\n";
+  else if (!linesError.empty())
+    os << "lines:        stored but unusable: " << linesError << "\n";
+  else
+    os << "lines:        " << lines << " (segments of " << lineKeyFrames << " keyframes)\n";
+  os << "loop edges:   " << loopEdges << "\n";
   os << "keyframes:    " << keyFrames;
   if (keyFrames > 0)
     os << " (timestamps " << fmt(firstStamp, 6) << " .. " << fmt(lastStamp, 6) << ", path " << fmt(keyFramePathLength)

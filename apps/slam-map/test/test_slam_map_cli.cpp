@@ -58,7 +58,8 @@ TEST(SlamMapCli, InfoAndExport) {
   const CliRun text = runCli("info " + file.string(), tmp.path);
   EXPECT_EQ(text.exitCode, 0) << text.err;
   EXPECT_NE(text.out.find("keyframes:    5"), std::string::npos) << text.out;
-  EXPECT_NE(text.out.find("format version 1"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("format version 2"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("lines:        none stored"), std::string::npos) << text.out;
 
   const CliRun json = runCli("info " + file.string() + " --json", tmp.path);
   ASSERT_EQ(json.exitCode, 0) << json.err;

@@ -4,6 +4,7 @@
 // observations, culling and reset.
 #include <gtest/gtest.h>
 
+#include "pslam/core/Error.h"
 #include "pslam/lines/LineFrontEnd.h"
 #include "pslam/synth/Renderer.h"
 #include "pslam/synth/Scenarios.h"
@@ -183,6 +184,58 @@ TEST_F(LineFrontEndTest, LinesTheOptimizationsRejectAreCulled) {
   }
   ASSERT_GT(rejected, 0u);
   EXPECT_LE(fe.numLines(), before - rejected);
+}
+
+TEST_F(LineFrontEndTest, TheLineStoreSavedWithTheMapComesBackByteForByteAndABadOneIsRefused) {
+  // LineFrontEnd::serialize / restore (the map extension "lines"): lines with observations and counters, after a
+  // frame's tracking updated them, restored into another front end, give the same lines and the same bytes.
+  LinesParams p;
+  p.enabled = true;
+  LineFrontEnd fe(p, camera());
+  map::Map m;
+  const map::KeyFrameId k0 = addMapKeyFrame(m, views_[0], 0.0);
+  const map::KeyFrameId k2 = addMapKeyFrame(m, views_[2], 1.0);
+  fe.addKeyFrame(k0, views_[0].grey, false);
+  fe.addKeyFrame(k2, views_[2].grey, false);
+  fe.createLines(m, k2);
+  const tracking::Frame f = frameOf(views_[1], 5);
+  const auto factors = fe.poseFactors(f, m, k2);
+  fe.afterTracking(f, m, std::vector<bool>(factors.size(), false));
+  ASSERT_GT(fe.numLines(), 3u);
+  const std::string bytes = fe.serialize();
+
+  LineFrontEnd restored(p, camera());
+  restored.restore(bytes, m);
+  EXPECT_EQ(restored.serialize(), bytes);
+  ASSERT_EQ(restored.lines().size(), fe.lines().size());
+  for (const auto& [id, l] : fe.lines()) {
+    const MapLine& r = restored.lines().at(id);
+    EXPECT_EQ(r.landmark->endpoints, l.landmark->endpoints);
+    EXPECT_EQ(r.observations, l.observations);
+    EXPECT_EQ(r.visible, l.visible);
+    EXPECT_EQ(r.found, l.found);
+    EXPECT_EQ(cv::norm(r.descriptor, l.descriptor, cv::NORM_HAMMING), 0.0);
+  }
+  EXPECT_EQ(restored.keyFrames().size(), 2u);
+  // The restored lines are tracked like the originals.
+  EXPECT_EQ(restored.poseFactors(f, m, k2).size(), fe.poseFactors(f, m, k2).size());
+
+  auto errorOf = [&](const std::string& b, const map::Map& against) {
+    LineFrontEnd target(p, camera());
+    try {
+      target.restore(b, against);
+    } catch (const Error& e) {
+      EXPECT_TRUE(target.keyFrames().empty()) << "a refused store leaves the front end empty";
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(errorOf(bytes.substr(0, bytes.size() / 2), m).find("lines: truncated"), std::string::npos);
+  EXPECT_NE(errorOf("XXXX" + bytes.substr(4), m).find("bad magic"), std::string::npos);
+  EXPECT_NE(errorOf(bytes + "x", m).find("unexpected bytes"), std::string::npos);
+  map::Map other;  // a map without those keyframes
+  addMapKeyFrame(other, views_[0], 0.0);
+  EXPECT_NE(errorOf(bytes, other).find("is not in the map"), std::string::npos) << errorOf(bytes, other);
 }
 
 TEST(LinesParams, DefaultsAndChecks) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 #include "pslam/core/Error.h"
 #include "pslam/features/Matching.h"
@@ -56,6 +57,44 @@ void LoopCloser::reset() {
   groups_.clear();
   lastLoopKeyFrame_ = map::kNoKeyFrame;
   loopEdges_.clear();
+}
+
+std::string LoopCloser::serializeLoopEdges() const {
+  std::string bytes;
+  auto put = [&](std::uint64_t v) { bytes.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  std::vector<std::pair<KeyFrameId, KeyFrameId>> kept;
+  for (const auto& e : loopEdges_)
+    if (map_.hasKeyFrame(e.first) && map_.hasKeyFrame(e.second)) kept.push_back(e);
+  put(kept.size());
+  for (const auto& [a, b] : kept) {
+    put(a);
+    put(b);
+  }
+  return bytes;
+}
+
+void LoopCloser::restoreLoopEdges(const std::string& bytes, const map::Map& map) {
+  loopEdges_.clear();
+  std::size_t pos = 0;
+  auto get = [&] {
+    std::uint64_t v = 0;
+    if (bytes.size() - pos < sizeof v) throw Error("loop edges: truncated");
+    std::memcpy(&v, bytes.data() + pos, sizeof v);
+    pos += sizeof v;
+    return v;
+  };
+  const std::uint64_t n = get();
+  if (n > bytes.size() / 16) throw Error("loop edges: implausible count " + std::to_string(n));
+  std::vector<std::pair<KeyFrameId, KeyFrameId>> edges;
+  for (std::uint64_t i = 0; i < n; ++i) {
+    const KeyFrameId a = get(), b = get();
+    if (a == b || !map.hasKeyFrame(a) || !map.hasKeyFrame(b))
+      throw Error("loop edges: edge " + std::to_string(a) + " - " + std::to_string(b) +
+                  " does not join two keyframes of the map");
+    edges.emplace_back(a, b);
+  }
+  if (pos != bytes.size()) throw Error("loop edges: unexpected bytes after the last edge");
+  loopEdges_ = std::move(edges);
 }
 
 bool LoopCloser::usablePoint(MapPointId id) const {

@@ -2,7 +2,8 @@
 // its own while the map goes on changing, and its result is written back afterwards. On a synthetic map with
 // perturbed keyframes: the keyframes and points of the copy take exactly the poses and depths the in-place global BA
 // gives the same map; a keyframe made meanwhile keeps its pose relative to its spanning-tree parent; a point erased
-// meanwhile stays erased; the keyframes-moved callback hears of it; a reset drops a running BA.
+// meanwhile stays erased; the keyframes-moved callback hears of it; a reset drops a running BA. And the loop edges
+// saved with the map (its extension "loop_edges").
 #include <condition_variable>
 #include <mutex>
 #include <random>
@@ -147,4 +148,40 @@ TEST(AsynchronousGlobalBa, StartingOneNeedsTheAsynchronousModeAndOneAtATime) {
   closer.setAsynchronousGlobalBa([] {});
   closer.startGlobalBundleAdjustment(0);
   EXPECT_THROW(closer.startGlobalBundleAdjustment(0), Error);
+}
+
+TEST(LoopEdges, SavedWithTheMapAndCheckedWhenLoaded) {
+  // The map extension "loop_edges": edges between keyframes of the map come back as they were; an edge whose
+  // keyframe the map culled since is left out when saving; bytes that do not fit the map are refused.
+  Fixture f;
+  loopclosing::LoopCloser closer(f.map, enabled(), {}, 1);
+  const map::KeyFrameId a = f.scene.keyframes[0], b = f.scene.keyframes[4], c = f.scene.keyframes[2];
+  std::string bytes;
+  auto put = [&](std::uint64_t v) { bytes.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(2);
+  put(b);
+  put(a);
+  put(c);
+  put(a);
+  closer.restoreLoopEdges(bytes, f.map);
+  ASSERT_EQ(closer.loopEdges().size(), 2u);
+  EXPECT_EQ(closer.loopEdges()[0], std::make_pair(b, a));
+  EXPECT_EQ(closer.serializeLoopEdges(), bytes);
+
+  f.map.eraseKeyFrame(c);
+  const std::string saved = closer.serializeLoopEdges();
+  EXPECT_EQ(saved.size(), 3 * sizeof(std::uint64_t)) << "the edge of the culled keyframe is left out";
+
+  auto errorOf = [&](const std::string& bad) {
+    try {
+      closer.restoreLoopEdges(bad, f.map);
+    } catch (const Error& e) {
+      EXPECT_TRUE(closer.loopEdges().empty());
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(errorOf(bytes).find("does not join two keyframes of the map"), std::string::npos) << errorOf(bytes);
+  EXPECT_NE(errorOf(saved.substr(0, 20)).find("truncated"), std::string::npos);
+  EXPECT_NE(errorOf(saved + "x").find("unexpected bytes"), std::string::npos);
 }

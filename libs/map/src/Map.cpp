@@ -538,8 +538,14 @@ bool equalMapPoints(const MapPoint& a, const MapPoint& b) {
          a.landmarkState == b.landmarkState;
 }
 
+const std::string* Map::extension(const std::string& name) const {
+  const auto it = extensions_.find(name);
+  return it == extensions_.end() ? nullptr : &it->second;
+}
+
 bool Map::operator==(const Map& o) const {
   if (nextKeyFrameId_ != o.nextKeyFrameId_ || nextMapPointId_ != o.nextMapPointId_ || vocabulary_ != o.vocabulary_ ||
+      extensions_ != o.extensions_ ||
       keyframes_.size() != o.keyframes_.size() || points_.size() != o.points_.size())
     return false;
   for (auto a = keyframes_.begin(), b = o.keyframes_.begin(); a != keyframes_.end(); ++a, ++b)

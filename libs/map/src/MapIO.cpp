@@ -32,6 +32,7 @@ using mrpt::serialization::CArchive;
 
 // Guards against absurd counts read from a corrupt file (they would otherwise allocate gigabytes).
 constexpr std::uint64_t kMaxCount = 100'000'000ULL;
+constexpr std::uint64_t kMaxExtensions = 64;
 constexpr std::uint64_t kMaxPyramidLevels = 64;
 constexpr std::uint64_t kMaxLandmarkState = 1024;
 constexpr std::int32_t kMaxImageSide = 1 << 16;
@@ -260,6 +261,8 @@ void CSlamMapArchive::serializeTo(mrpt::serialization::CArchive& out) const {
   out << std::uint64_t(map.mapPoints().size());
   for (const auto& [id, p] : map.mapPoints()) writeMapPoint(out, p);
   out << map.vocabulary();
+  out << std::uint64_t(map.extensions().size());
+  for (const auto& [name, bytes] : map.extensions()) out << name << bytes;
   out << kEndSentinel;
 }
 
@@ -305,6 +308,17 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
     if (vocabulary.size() > 4096)
       throw Error("vocabulary fingerprint of " + std::to_string(vocabulary.size()) + " bytes");
     m.setVocabulary(std::move(vocabulary));
+  }
+  if (version >= 2) {
+    const std::uint64_t nExtensions = readCount(in, "extension", kMaxExtensions);
+    for (std::uint64_t i = 0; i < nExtensions; ++i) {
+      std::string name, bytes;
+      in >> name;
+      if (name.empty() || name.size() > 64) throw Error("extension name of " + std::to_string(name.size()) + " bytes");
+      in >> bytes;
+      if (m.extension(name)) throw Error("duplicate extension '" + name + "'");
+      m.setExtension(name, std::move(bytes));
+    }
   }
   std::uint32_t sentinel = 0;
   in >> sentinel;

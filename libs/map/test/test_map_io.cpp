@@ -168,7 +168,8 @@ TEST(MapIO, WrongVersion) {
     out.Write(raw.data(), raw.size());
   }
   const std::string msg = expectLoadError(bumped);
-  EXPECT_NE(msg.find("version 2"), std::string::npos) << msg;
+  static_assert(CSlamMapArchive::kFormatVersion == 2, "the message below names the next version");
+  EXPECT_NE(msg.find("version 3"), std::string::npos) << msg;
 }
 
 namespace {
@@ -189,25 +190,55 @@ void compress(const std::string& raw, const fs::path& file) {
 
 // Format 0 (before the vocabulary record) is still read: a version-1 file turned back into version 0 (version
 // byte 0, the empty vocabulary string removed) loads as the same map.
-TEST(MapIO, Version0FilesAreStillRead) {
-  const Map map = richMap();
-  ASSERT_TRUE(map.vocabulary().empty());
-  const fs::path file = tempDir() / "v1.slammap";
+/// The file of `map` (no vocabulary, no extensions) rewritten as format `version` (0 or 1): the fields the later
+/// formats added dropped from its end.
+fs::path olderFormat(const Map& map, int version, const std::string& name) {
+  const fs::path file = tempDir() / (name + "_v2.slammap");
   saveMap(map, file);
   std::string raw = decompress(file);
-  const std::string name = CSlamMapArchive::className;
-  const std::size_t pos = raw.find(name);
-  ASSERT_NE(pos, std::string::npos);
-  ASSERT_EQ(std::uint8_t(raw[pos + name.size()]), 1u);
-  raw[pos + name.size()] = char(0);
-  // ... [vocabulary length u32 = 0]["SLME" u32][MRPT end flag u8]
-  ASSERT_EQ(raw.substr(raw.size() - 9, 4), std::string(4, '\0'));
-  raw.erase(raw.size() - 9, 4);
-  const fs::path v0 = tempDir() / "v0.slammap";
-  compress(raw, v0);
-  std::uint8_t version = 99;
-  EXPECT_TRUE(loadMap(v0, &version) == map);
-  EXPECT_EQ(version, 0u);
+  const std::string cls = CSlamMapArchive::className;
+  const std::size_t pos = raw.find(cls);
+  EXPECT_NE(pos, std::string::npos);
+  EXPECT_EQ(std::uint8_t(raw[pos + cls.size()]), 2u);
+  raw[pos + cls.size()] = char(version);
+  // ... [vocabulary length u32 = 0][extension count u64 = 0]["SLME" u32][MRPT end flag u8]
+  EXPECT_EQ(raw.substr(raw.size() - 17, 12), std::string(12, '\0'));
+  raw.erase(version == 0 ? raw.size() - 17 : raw.size() - 13, version == 0 ? 12 : 8);
+  const fs::path older = tempDir() / (name + "_v" + std::to_string(version) + ".slammap");
+  compress(raw, older);
+  return older;
+}
+
+TEST(MapIO, Version0And1FilesAreStillRead) {
+  const Map map = richMap();
+  ASSERT_TRUE(map.vocabulary().empty());
+  ASSERT_TRUE(map.extensions().empty());
+  for (const int v : {0, 1}) {
+    std::uint8_t version = 99;
+    EXPECT_TRUE(loadMap(olderFormat(map, v, "older"), &version) == map) << v;
+    EXPECT_EQ(version, v);
+  }
+}
+
+TEST(MapIO, ExtensionsAreCarriedByteForByte) {
+  // Format 2: named blobs other libraries keep beside the map (lines, loop edges) come back as they were written.
+  Map map = richMap();
+  std::string binary(300, '\0');
+  for (std::size_t i = 0; i < binary.size(); ++i) binary[i] = static_cast<char>(i * 7);
+  map.setExtension("lines", binary);
+  map.setExtension("loop_edges", "");
+  const fs::path file = tempDir() / "extensions.slammap";
+  saveMap(map, file);
+  const Map loaded = loadMap(file);
+  EXPECT_TRUE(loaded == map);
+  ASSERT_NE(loaded.extension("lines"), nullptr);
+  EXPECT_EQ(*loaded.extension("lines"), binary);
+  ASSERT_NE(loaded.extension("loop_edges"), nullptr);
+  EXPECT_TRUE(loaded.extension("loop_edges")->empty());
+  EXPECT_EQ(loaded.extension("other"), nullptr);
+  const fs::path again = tempDir() / "extensions_again.slammap";
+  saveMap(loaded, again);
+  EXPECT_EQ(decompress(again), decompress(file));
 }
 
 // Reliability (doc/reliability.md): a flag byte other than 0 / 1 is refused (it used to be read straight into
@@ -220,9 +251,10 @@ TEST(MapIO, FlagByteOtherThanZeroOrOneIsRefused) {
   saveMap(map, file);
   std::string raw = decompress(file);
   // The archive ends with the last point's [bad u8][firstKeyFrame u64][landmark count u64 = 0], the vocabulary
-  // record (an MRPT string: u32 length, here 0), the end marker "SLME" (u32) and MRPT's end-of-object flag (u8).
+  // record (an MRPT string: u32 length, here 0), the extension count (u64 = 0), the end marker "SLME" (u32) and
+  // MRPT's end-of-object flag (u8).
   ASSERT_TRUE(map.vocabulary().empty());
-  const std::size_t at = raw.size() - 26;
+  const std::size_t at = raw.size() - 34;
   ASSERT_EQ(raw.substr(raw.size() - 5, 4), std::string("EMLS"));
   ASSERT_LE(std::uint8_t(raw[at]), 1u);
   raw[at] = char(0x42);

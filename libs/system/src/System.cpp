@@ -666,6 +666,10 @@ void System::finish() {
   if (impl_) impl_->waitForMapping();
 }
 
+void System::waitForLocalMapping() {
+  if (impl_) impl_->waitForMapping(true);
+}
+
 Trajectory System::trajectory() const {
   Trajectory trajectory;
   if (!impl_) return trajectory;
@@ -696,7 +700,26 @@ map::Map System::mapSnapshot() const {
   std::lock_guard<std::mutex> mk(impl_->mapMutex);
   map::Map snapshot = impl_->map;
   // The map records the vocabulary of the run that builds it; a localization run leaves the loaded map as it was.
-  if (mappingEnabled_) snapshot.setVocabulary(vocabularyFingerprint_);
+  if (!mappingEnabled_) return snapshot;
+  snapshot.setVocabulary(vocabularyFingerprint_);
+  // What lives beside the map proper (map extensions): what this run's front ends hold, absent when they hold
+  // nothing or are off.
+  auto extension = [&](const char* name, const std::string& bytes, bool empty) {
+    if (empty)
+      snapshot.eraseExtension(name);
+    else
+      snapshot.setExtension(name, bytes);
+  };
+  if (impl_->lineFrontEnd)
+    extension(lines::LineFrontEnd::kMapExtension, impl_->lineFrontEnd->serialize(),
+              impl_->lineFrontEnd->keyFrames().empty());
+  else
+    snapshot.eraseExtension(lines::LineFrontEnd::kMapExtension);
+  if (impl_->loopCloser)
+    extension(loopclosing::LoopCloser::kMapExtension, impl_->loopCloser->serializeLoopEdges(),
+              impl_->loopCloser->loopEdges().empty());
+  else
+    snapshot.eraseExtension(loopclosing::LoopCloser::kMapExtension);
   return snapshot;
 }
 
@@ -728,12 +751,27 @@ void System::setMap(map::Map loaded, const std::string& source) {
   const map::CameraIntrinsics own = tracking::toIntrinsics(impl_->camera);
   require(own == mapCamera, source,
           "map camera (" + describe(mapCamera) + ") differs from the camera of this run (" + describe(own) + ")");
+  // The map's extensions are checked against it before anything is replaced (a bad one: nothing changes).
+  const std::string* lineStore = impl_->lineFrontEnd ? loaded.extension(lines::LineFrontEnd::kMapExtension) : nullptr;
+  const std::string* loopEdges =
+      impl_->loopCloser ? loaded.extension(loopclosing::LoopCloser::kMapExtension) : nullptr;
+  try {
+    if (lineStore) lines::LineFrontEnd(impl_->lineFrontEnd->params(), impl_->camera).restore(*lineStore, loaded);
+    if (loopEdges) loopclosing::LoopCloser(loaded, params_.loopClosing, params_.bundleAdjustment, 0)
+                       .restoreLoopEdges(*loopEdges, loaded);
+  } catch (const Error& e) {
+    throw Error(source + ": " + e.what());
+  }
   impl_->map = std::move(loaded);
   impl_->mapper->reset();
   if (impl_->directFrontEnd) impl_->directFrontEnd->reset();
   if (impl_->lineFrontEnd) impl_->lineFrontEnd->reset();
   impl_->tracker->onMapLoaded();
-  impl_->newGeneration();
+  impl_->newGeneration();  // resets loop closing
+  // The lines and loop edges the map was saved with (its extensions "lines", "loop_edges").
+  if (lineStore) impl_->lineFrontEnd->restore(*impl_->map.extension(lines::LineFrontEnd::kMapExtension), impl_->map);
+  if (loopEdges)
+    impl_->loopCloser->restoreLoopEdges(*impl_->map.extension(loopclosing::LoopCloser::kMapExtension), impl_->map);
 }
 
 void System::setMappingEnabled(bool enabled) {

@@ -934,6 +934,11 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   if (lines_ && mapUpdates_) {
     ScopedStage st(timings, "line_update");
     rep.lines = lines_->afterTracking(frame, map_, lineOutliers_);
+  } else if (lines_) {
+    // Localization: the line store stays as it was loaded (no counters, no culling); the report still says what
+    // the pose used.
+    rep.lines.factors = lineFactors_;
+    rep.lines.inliers = lineInliers_;
   }
   if (last_.hasPose && !relocalized) {
     velocity_ = frame.T_cam_world * last_.T_cam_world.inverse();

@@ -10,6 +10,7 @@
 // Outputs are prepared before the work and written under temporary names, then renamed (pslam::OutputSet).
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,11 @@ struct MapInfo {
   int formatVersion = 0;
   map::CameraIntrinsics camera;
   std::string vocabulary;                   ///< fingerprint of the vocabulary the map was built with, or empty
+  /// What the map carries beside its points (format 2 extensions): name -> bytes.
+  std::map<std::string, std::size_t> extensions;
+  std::size_t lines = 0, lineKeyFrames = 0;  ///< the line store ("lines"): good lines, keyframes with segments
+  std::string linesError;                    ///< why the stored lines do not fit the map (empty: they do)
+  std::size_t loopEdges = 0;                 ///< "loop_edges"
   std::size_t keyFrames = 0, mapPoints = 0, badPoints = 0, observations = 0;
   double firstStamp = 0, lastStamp = 0;     ///< keyframe timestamps
   double keyFramePathLength = 0;            ///< along the keyframe centres in timestamp order (map units)

@@ -15,11 +15,12 @@
 //     the window joins with a LineBAFactor per observation; outlier observations are erased;
 //   - culling: lines whose found ratio in pose optimization falls below cullMinFoundRatio, and lines that no
 //     keyframe observed again within probationKeyFrames keyframes of their creation.
-// Lines live in this store next to the map (not in map.slammap). Everything is deterministic (ordered
-// containers, no randomness).
+// Lines live in this store next to the map; map.slammap carries it as the map extension "lines" (serialize /
+// restore). Everything is deterministic (ordered containers, no randomness).
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -152,6 +153,15 @@ class LineFrontEnd : public tracking::LineSource {
   double lastExtractionMs() const { return extractionMs_; }
   const LinesParams& params() const { return params_; }
   nlohmann::json summary() const;
+  // ---- saved with the map (Map extension "lines", format in LineStoreIO.cpp) ----
+  /// The line store (keyframe segments and descriptors, lines with their observations and counters) as bytes.
+  std::string serialize() const;
+  /// Replaces the store by one serialize() wrote, for `map` (a loaded map): every keyframe must be one of the map's,
+  /// every observation and segment index consistent. Throws pslam::Error saying what is wrong ("lines: ...") and
+  /// leaves the store empty then.
+  void restore(const std::string& bytes, const map::Map& map);
+  static constexpr const char* kMapExtension = "lines";
+
   /// Adds a line (tests): world endpoints, descriptor, observations (keyframe -> segment). Returns its id.
   std::uint64_t addLine(const Line3& line, const cv::Mat& descriptor, const std::map<map::KeyFrameId, int>& observations);
 

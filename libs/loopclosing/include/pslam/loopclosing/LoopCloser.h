@@ -130,6 +130,16 @@ class LoopCloser {
   void reset();
   ~LoopCloser();
   int loopsClosed() const { return loopsClosed_; }
+  /// The loop edges of the loops closed so far (kept in the essential graph of later loops), saved with the map as
+  /// its extension "loop_edges": u64 count, then per edge two u64 keyframe ids.
+  const std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>>& loopEdges() const { return loopEdges_; }
+  std::string serializeLoopEdges() const;
+  /// Edges whose keyframes were culled since are left out.
+  /// Takes the loop edges of a loaded map (serializeLoopEdges' bytes): both keyframes of each must be keyframes of
+  /// `map` (the loaded one, before it replaces the live map). Throws pslam::Error ("loop edges: ...") and keeps none
+  /// otherwise.
+  void restoreLoopEdges(const std::string& bytes, const map::Map& map);
+  static constexpr const char* kMapExtension = "loop_edges";
 
  private:
   struct Group {

@@ -140,6 +140,16 @@ class Map {
   const std::string& vocabulary() const { return vocabulary_; }
   void setVocabulary(std::string fingerprint) { vocabulary_ = std::move(fingerprint); }
 
+  // ---- what other libraries keep beside the map (serialized, format 2) ----
+  /// Named opaque byte blobs: the landmark kinds and graph edges that live outside the map proper (the line store
+  /// of libs/lines as "lines", the loop edges of libs/loopclosing as "loop_edges"). Their owners write them before
+  /// a save and read and check them after a load; the map only carries them.
+  const std::map<std::string, std::string>& extensions() const { return extensions_; }
+  /// Null when absent.
+  const std::string* extension(const std::string& name) const;
+  void setExtension(const std::string& name, std::string bytes) { extensions_[name] = std::move(bytes); }
+  void eraseExtension(const std::string& name) { extensions_.erase(name); }
+
   // ---- counters for ids (serialized) ----
   KeyFrameId nextKeyFrameId() const { return nextKeyFrameId_; }
   MapPointId nextMapPointId() const { return nextMapPointId_; }
@@ -165,6 +175,7 @@ class Map {
   KeyFrameId nextKeyFrameId_ = 0;
   MapPointId nextMapPointId_ = 0;
   std::string vocabulary_;
+  std::map<std::string, std::string> extensions_;
 };
 
 /// Exact equality of two keyframes / points (all fields, descriptors byte-wise).

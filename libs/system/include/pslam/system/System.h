@@ -69,8 +69,13 @@ class System {
   /// invalid intrinsics, or an image size other than the camera's.
   TrackResult track(const datasets::Frame& frame);
 
-  /// Threaded mode: waits until local mapping has processed every queued keyframe. No-op when sequential.
+  /// Threaded mode: waits until local mapping has processed every queued keyframe and a loop's global BA is
+  /// written back. No-op when sequential.
   void finish();
+  /// Threaded mode: blocks until the mapping thread has mapped every queued keyframe; a loop's global BA, on its
+  /// own thread, may still run (finish() waits for it too). For a caller that wants tracking not to run ahead of
+  /// local mapping (tests, step-by-step use). Sequential mode: returns at once.
+  void waitForLocalMapping();
 
   /// Every frame that had a pose since the last map (re)initialization, in timestamp order, camera-to-world,
   /// each resolved against the current pose of its reference keyframe (ORB-SLAM's SaveTrajectoryTUM: frames
