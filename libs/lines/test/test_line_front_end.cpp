@@ -49,6 +49,14 @@ class LineFrontEndTest : public ::testing::Test {
     kf.setPyramid(1, 1.2);
     return m.addKeyFrame(kf);
   }
+  /// Keyframes at views 0 and 2, in `m` and (their segments) in `fe`.
+  std::pair<map::KeyFrameId, map::KeyFrameId> twoKeyFrames(LineFrontEnd& fe, map::Map& m) const {
+    const map::KeyFrameId k0 = addMapKeyFrame(m, views_[0], 0.0);
+    const map::KeyFrameId k2 = addMapKeyFrame(m, views_[2], 1.0);
+    fe.addKeyFrame(k0, views_[0].grey, false);
+    fe.addKeyFrame(k2, views_[2].grey, false);
+    return {k0, k2};
+  }
   static tracking::Frame frameOf(const View& v, std::size_t index) {
     tracking::Frame f;
     f.index = index;
@@ -72,10 +80,7 @@ TEST_F(LineFrontEndTest, TriangulatesLinesOnTheRenderedSurfacesAndTracksThem) {
   p.enabled = true;
   LineFrontEnd fe(p, camera());
   map::Map m;
-  const map::KeyFrameId k0 = addMapKeyFrame(m, views_[0], 0.0);
-  const map::KeyFrameId k2 = addMapKeyFrame(m, views_[2], 1.0);
-  fe.addKeyFrame(k0, views_[0].grey, false);
-  fe.addKeyFrame(k2, views_[2].grey, false);
+  const auto [k0, k2] = twoKeyFrames(fe, m);
   EXPECT_EQ(fe.keyFrames().at(k0).features.size(), 40u);
   const LineCreationReport rep = fe.createLines(m, k2);
   EXPECT_GT(rep.created, 5) << "candidates " << rep.candidates;
@@ -168,10 +173,7 @@ TEST_F(LineFrontEndTest, LinesTheOptimizationsRejectAreCulled) {
   p.cullMinVisible = 3;
   LineFrontEnd fe(p, camera());
   map::Map m;
-  const map::KeyFrameId k0 = addMapKeyFrame(m, views_[0], 0.0);
-  const map::KeyFrameId k2 = addMapKeyFrame(m, views_[2], 1.0);
-  fe.addKeyFrame(k0, views_[0].grey, false);
-  fe.addKeyFrame(k2, views_[2].grey, false);
+  const auto [k0, k2] = twoKeyFrames(fe, m);
   fe.createLines(m, k2);
   const std::size_t before = fe.numLines();
   ASSERT_GT(before, 0u);
@@ -193,10 +195,7 @@ TEST_F(LineFrontEndTest, TheLineStoreSavedWithTheMapComesBackByteForByteAndABadO
   p.enabled = true;
   LineFrontEnd fe(p, camera());
   map::Map m;
-  const map::KeyFrameId k0 = addMapKeyFrame(m, views_[0], 0.0);
-  const map::KeyFrameId k2 = addMapKeyFrame(m, views_[2], 1.0);
-  fe.addKeyFrame(k0, views_[0].grey, false);
-  fe.addKeyFrame(k2, views_[2].grey, false);
+  const auto [k0, k2] = twoKeyFrames(fe, m);
   fe.createLines(m, k2);
   const tracking::Frame f = frameOf(views_[1], 5);
   const auto factors = fe.poseFactors(f, m, k2);
