@@ -75,6 +75,11 @@ std::string LoopCloser::serializeLoopEdges() const {
 
 void LoopCloser::restoreLoopEdges(const std::string& bytes, const map::Map& map) {
   loopEdges_.clear();
+  loopEdges_ = parseLoopEdges(bytes, map);
+}
+
+std::vector<std::pair<KeyFrameId, KeyFrameId>> LoopCloser::parseLoopEdges(const std::string& bytes,
+                                                                          const map::Map& map) {
   std::size_t pos = 0;
   auto get = [&] {
     std::uint64_t v = 0;
@@ -94,7 +99,7 @@ void LoopCloser::restoreLoopEdges(const std::string& bytes, const map::Map& map)
     edges.emplace_back(a, b);
   }
   if (pos != bytes.size()) throw Error("loop edges: unexpected bytes after the last edge");
-  loopEdges_ = std::move(edges);
+  return edges;
 }
 
 bool LoopCloser::usablePoint(MapPointId id) const {
@@ -384,11 +389,9 @@ void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isomet
     moved(report, posesBeforeCorrection);
     return;
   }
-  optimize::BundleAdjustmentParams ba = ba_;
-  ba.globalIterations = params_.globalBAIterations;
   const auto t0 = std::chrono::steady_clock::now();
   if (!asynchronousGlobalBa_) {
-    optimize::globalBundleAdjustment(map_, ba);
+    optimize::globalBundleAdjustment(map_, globalBaParams());
     report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     moved(report, posesBeforeCorrection);
     return;
@@ -401,11 +404,16 @@ void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isomet
   report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+optimize::BundleAdjustmentParams LoopCloser::globalBaParams() const {
+  optimize::BundleAdjustmentParams ba = ba_;
+  ba.globalIterations = std::max(params_.globalBAIterations, 1);
+  return ba;
+}
+
 void LoopCloser::startGlobalBundleAdjustment(KeyFrameId loopKeyFrame) {
   require(asynchronousGlobalBa_, "loop closing", "startGlobalBundleAdjustment needs setAsynchronousGlobalBa");
   require(!pending_, "loop closing", "a global BA is already running");
-  optimize::BundleAdjustmentParams ba = ba_;
-  ba.globalIterations = std::max(params_.globalBAIterations, 1);
+  const optimize::BundleAdjustmentParams ba = globalBaParams();
   pending_ = std::make_unique<PendingGlobalBa>();
   PendingGlobalBa* job = pending_.get();
   job->problem = optimize::makeGlobalProblem(map_);
@@ -446,12 +454,12 @@ std::optional<nlohmann::json> LoopCloser::applyGlobalBundleAdjustment() {
   }
   for (const auto& [id, rho] : result.inverseDepths) {
     // A point keeps its anchor-relative inverse depth; one fused away or re-anchored since the copy is left as it
-    // is, and so is one the BA put at or behind its anchor's infinity (rho <= 0: no finite position to give it).
+    // is, and so is one the BA put at or behind its anchor's infinity.
     if (!map_.hasMapPoint(id) || map_.mapPoint(id).anchorKeyFrame != job->problem.points.at(id).anchor) {
       ++pointsSkipped;
       continue;
     }
-    if (!(rho > 0.0) || !std::isfinite(rho)) {
+    if (!optimize::isFiniteInverseDepth(rho)) {
       ++pointsAtInfinity;
       continue;
     }

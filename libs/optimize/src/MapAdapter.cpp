@@ -71,10 +71,8 @@ MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BARe
   std::set<map::MapPointId> touched;
   for (const auto& [id, rho] : result.inverseDepths) {
     if (!map.hasMapPoint(id)) continue;
-    // The bearing is unchanged. A rho <= 0 (at or behind the anchor's infinity) has no finite position: setting
-    // it (as 0, before) made an infinitely far point that the next pose optimization refused as non-finite input.
-    // The point keeps its depth; its outlier observations go below.
-    if (!(rho > 0.0) || !std::isfinite(rho)) {
+    // The bearing is unchanged; a point at or behind infinity keeps its depth, its outlier observations go below.
+    if (!isFiniteInverseDepth(rho)) {
       ++s.pointsNotMoved;
       continue;
     }

@@ -757,8 +757,7 @@ void System::setMap(map::Map loaded, const std::string& source) {
       impl_->loopCloser ? loaded.extension(loopclosing::LoopCloser::kMapExtension) : nullptr;
   try {
     if (lineStore) lines::LineFrontEnd(impl_->lineFrontEnd->params(), impl_->camera).restore(*lineStore, loaded);
-    if (loopEdges) loopclosing::LoopCloser(loaded, params_.loopClosing, params_.bundleAdjustment, 0)
-                       .restoreLoopEdges(*loopEdges, loaded);
+    if (loopEdges) loopclosing::LoopCloser::parseLoopEdges(*loopEdges, loaded);
   } catch (const Error& e) {
     throw Error(source + ": " + e.what());
   }

@@ -139,6 +139,9 @@ class LoopCloser {
   /// `map` (the loaded one, before it replaces the live map). Throws pslam::Error ("loop edges: ...") and keeps none
   /// otherwise.
   void restoreLoopEdges(const std::string& bytes, const map::Map& map);
+  /// The edges of serializeLoopEdges' bytes, checked against `map` as restoreLoopEdges does (throws the same).
+  static std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>> parseLoopEdges(const std::string& bytes,
+                                                                                 const map::Map& map);
   static constexpr const char* kMapExtension = "loop_edges";
 
  private:
@@ -159,6 +162,8 @@ class LoopCloser {
                                                             const std::vector<map::MapPointId>& points,
                                                             const std::set<std::size_t>& taken, float radius) const;
   bool usablePoint(map::MapPointId id) const;
+  /// The BA parameters of a loop's global BA (params_.globalBAIterations iterations, at least 1).
+  optimize::BundleAdjustmentParams globalBaParams() const;
   /// Step 5 of correct(): the global BA, in place or started on its own thread; calls keyFramesMoved_.
   void globalBundleAdjustment(const std::map<map::KeyFrameId, Eigen::Isometry3d>& posesBeforeCorrection,
                               LoopReport& report);

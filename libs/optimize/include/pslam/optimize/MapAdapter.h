@@ -1,6 +1,7 @@
 #pragma once
 // Glue between pslam::map::Map and the bundle adjuster: extract a window as a BAProblem, write a BAResult
 // back (poses, inverse depths, erasing outlier observations as ORB-SLAM does after local BA).
+#include <cmath>
 #include <functional>
 
 #include "pslam/map/Map.h"
@@ -29,9 +30,14 @@ struct MapUpdateSummary {
   int pointsNotMoved = 0;  ///< points the BA put at or behind infinity (rho <= 0): their depth is left as it was
 };
 
+/// Can a point take this BA-refined inverse depth? Not when it is <= 0 or not finite: the BA put the point at or
+/// behind its anchor's infinity, and there is no finite position to give it (written as 0, it became an infinitely
+/// far point that the next pose optimization refused as non-finite input). Such a point keeps its depth.
+inline bool isFiniteInverseDepth(double rho) { return rho > 0.0 && std::isfinite(rho); }
+
 /// Writes poses and inverse depths into `map`, erases the outlier observations when eraseOutliers, and
-/// refreshes the normal / scale distances of the touched points. A point the BA put at or behind infinity
-/// (inverse depth <= 0 or not finite) keeps its depth: it has no finite position to take.
+/// refreshes the normal / scale distances of the touched points. A point whose refined inverse depth fails
+/// isFiniteInverseDepth keeps its depth.
 MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BAResult& result,
                              bool eraseOutliers = true);
 
