@@ -10,6 +10,7 @@
 #include <cstring>
 #include <set>
 
+#include "pslam/core/ByteCodec.h"
 #include "pslam/core/Error.h"
 #include "pslam/lines/LineFrontEnd.h"
 
@@ -22,66 +23,10 @@ constexpr std::uint8_t kVersion = 1;
 constexpr std::uint64_t kMaxItems = 10'000'000;   // guards against absurd counts in a corrupt blob
 constexpr std::uint64_t kMaxDescriptorBytes = 256;
 
-class Writer {
- public:
-  template <class T>
-  void put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    bytes_.append(b, sizeof(T));
-  }
-  void putBytes(const unsigned char* p, std::size_t n) { bytes_.append(reinterpret_cast<const char*>(p), n); }
-  std::string take() { return std::move(bytes_); }
-
- private:
-  std::string bytes_;
-};
-
-class Reader {
- public:
-  explicit Reader(const std::string& b) : b_(b) {}
-  template <class T>
-  T get(const char* what) {
-    need(sizeof(T), what);
-    T v;
-    std::memcpy(&v, b_.data() + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return v;
-  }
-  double finite(const char* what) {
-    const double v = get<double>(what);
-    if (!std::isfinite(v)) throw Error(std::string("lines: ") + what + " is NaN or Inf");
-    return v;
-  }
-  std::uint64_t count(const char* what, std::uint64_t max = kMaxItems) {
-    const auto n = get<std::uint64_t>(what);
-    if (n > max) throw Error("lines: implausible " + std::string(what) + " count " + std::to_string(n));
-    return n;
-  }
-  void bytes(unsigned char* out, std::size_t n, const char* what) {
-    need(n, what);
-    std::memcpy(out, b_.data() + pos_, n);
-    pos_ += n;
-  }
-  bool flag(const char* what) {
-    const auto v = get<std::uint8_t>(what);
-    if (v > 1) throw Error(std::string("lines: flag '") + what + "' is " + std::to_string(v) + " (expected 0 or 1)");
-    return v == 1;
-  }
-  bool atEnd() const { return pos_ == b_.size(); }
-
- private:
-  void need(std::size_t n, const char* what) const {
-    if (b_.size() - pos_ < n) throw Error(std::string("lines: truncated (at ") + what + ")");
-  }
-  const std::string& b_;
-  std::size_t pos_ = 0;
-};
-
 }  // namespace
 
 std::string LineFrontEnd::serialize() const {
-  Writer w;
+  ByteWriter w;
   for (char c : kMagic) w.put(c);
   w.put(kVersion);
   w.put<std::uint64_t>(nextId_);
@@ -126,9 +71,8 @@ std::string LineFrontEnd::serialize() const {
 
 void LineFrontEnd::restore(const std::string& bytes, const map::Map& map) {
   reset();
-  Reader r(bytes);
-  for (char c : kMagic)
-    if (r.get<char>("magic") != c) throw Error("lines: not a line store (bad magic)");
+  ByteReader r(bytes, "lines");
+  r.magic(kMagic, "a line store");
   const auto version = r.get<std::uint8_t>("version");
   if (version != kVersion)
     throw Error("lines: unsupported line store version " + std::to_string(version) + " (this build reads " +
@@ -137,14 +81,14 @@ void LineFrontEnd::restore(const std::string& bytes, const map::Map& map) {
   std::map<map::KeyFrameId, LineKeyFrame> keyframes;
   const auto nextId = r.get<std::uint64_t>("next id");
   const auto keyframesAdded = r.get<std::uint64_t>("keyframes added");
-  const std::uint64_t nKf = r.count("keyframe");
+  const std::uint64_t nKf = r.count("keyframe", kMaxItems);
   for (std::uint64_t i = 0; i < nKf; ++i) {
     const auto id = r.get<std::uint64_t>("keyframe id");
     if (!map.hasKeyFrame(id)) throw Error("lines: keyframe " + std::to_string(id) + " is not in the map");
     LineKeyFrame k;
     k.features.pixelSigma = r.finite("pixel sigma");
     if (!(k.features.pixelSigma > 0)) throw Error("lines: keyframe " + std::to_string(id) + ": pixel sigma <= 0");
-    const std::uint64_t nSeg = r.count("segment");
+    const std::uint64_t nSeg = r.count("segment", kMaxItems);
     for (std::uint64_t s = 0; s < nSeg; ++s) {
       LineSegment seg;
       seg.start.x() = r.finite("segment");
@@ -164,7 +108,7 @@ void LineFrontEnd::restore(const std::string& bytes, const map::Map& map) {
     for (std::uint64_t s = 0; s < nSeg; ++s) k.lineIds.push_back(r.get<std::int64_t>("segment line"));
     if (!keyframes.emplace(id, std::move(k)).second) throw Error("lines: keyframe " + std::to_string(id) + " twice");
   }
-  const std::uint64_t nLines = r.count("line");
+  const std::uint64_t nLines = r.count("line", kMaxItems);
   for (std::uint64_t i = 0; i < nLines; ++i) {
     const auto id = r.get<std::uint64_t>("line id");
     const std::string ctx = "lines: line " + std::to_string(id);
@@ -178,7 +122,7 @@ void LineFrontEnd::restore(const std::string& bytes, const map::Map& map) {
       l.descriptor.create(1, static_cast<int>(n), CV_8U);
       r.bytes(l.descriptor.ptr<unsigned char>(0), n, "line descriptor");
     }
-    const std::uint64_t nObs = r.count("observation");
+    const std::uint64_t nObs = r.count("observation", kMaxItems);
     for (std::uint64_t o = 0; o < nObs; ++o) {
       const auto kf = r.get<std::uint64_t>("observation keyframe");
       const auto seg = r.get<std::int32_t>("observation segment");
