@@ -169,6 +169,53 @@ TEST(MapReuse, MappingGoesOnInALoadedMap) {
   EXPECT_NE(readBytes(mapA), readBytes(o.outDir / "map.slammap"));
 }
 
+TEST(MapReuse, DirectPointsAreSavedWithTheMapAndLocalizeAnotherPath) {
+  // map.slammap carries the direct points (extension "direct_points"): a localization run on path B uses them from
+  // the loaded map (no host images: photometric factors from the host intensities they carry), keeps the map byte
+  // for byte and is as accurate as the keypoints alone; a map whose direct points are damaged is refused naming the
+  // file, nothing written.
+  const std::vector<std::string> direct = {"DirectFeatures.enabled=true", "PointModel.model=probabilistic"};
+  apps::SlamRunOptions a = runOptions(pathA(), tempRoot() / "directA");
+  a.overrides = direct;
+  ASSERT_TRUE(apps::SlamRunApp(a).run().initialized());
+  const fs::path mapA = a.outDir / "map.slammap";
+  const map::Map saved = map::loadMap(mapA);
+  ASSERT_NE(saved.extension("direct_points"), nullptr);
+
+  apps::SlamRunOptions o = runOptions(pathB(), tempRoot() / "directB");
+  o.overrides = direct;
+  o.mapIn = mapA;
+  o.localization = true;
+  const apps::SlamRunSummary s = apps::SlamRunApp(o).run();
+  EXPECT_GE(s.framesLocalized, 24u);
+  EXPECT_EQ(readBytes(mapA), readBytes(o.outDir / "map.slammap")) << "localization changed the map";
+  std::ifstream in(o.outDir / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  long factors = 0, inliers = 0;
+  for (const auto& f : report["frames"]) {
+    factors += f["direct_factors"].get<long>();
+    inliers += f["direct_inliers"].get<long>();
+  }
+  EXPECT_GT(factors, 100L * static_cast<long>(s.framesLocalized)) << "the loaded direct points join the poses";
+  EXPECT_GT(inliers, factors / 2);
+  eval::EvalOptions eo;
+  eo.alignFromGt = groundTruthOf(pathA());
+  eo.alignFromEst = a.outDir / "trajectory.txt";
+  const eval::EvalResult r = eval::EvalApp(eo).run(groundTruthOf(pathB()), o.outDir / "trajectory.txt");
+  EXPECT_LT(r.ate.stats.rmse, 0.05) << r.ate.stats.rmse;
+
+  map::Map damaged = saved;
+  damaged.setExtension("direct_points", saved.extension("direct_points")->substr(0, 200));
+  const fs::path bad = tempRoot() / "direct_damaged.slammap";
+  map::saveMap(damaged, bad);
+  apps::SlamRunOptions refused = runOptions(pathB(), tempRoot() / "direct_refused");
+  refused.overrides = direct;
+  refused.mapIn = bad;
+  const std::string err = errorOf([&] { apps::SlamRunApp(refused).run(); });
+  EXPECT_NE(err.find(bad.string() + ": direct points: truncated"), std::string::npos) << err;
+  EXPECT_EQ(filesIn(refused.outDir), 0u);
+}
+
 TEST(MapReuse, BadMapsAreNamedAndNothingIsWritten) {
   const fs::path mapA = runA() / "map.slammap";
   const auto expectRefused = [&](const fs::path& map, const std::string& what, bool localization = true) {

@@ -12,6 +12,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/eval/Plot.h"
 #include "pslam/landmarks/KeypointModel.h"
+#include "pslam/direct/DirectFrontEnd.h"
 #include "pslam/lines/LineFrontEnd.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/mapping/LocalMapper.h"
@@ -108,6 +109,16 @@ MapInfo mapInfo(const map::Map& map, const fs::path& file) {
       info.linesError = e.what();
     }
   }
+  if (const std::string* store = map.extension(direct::DirectFrontEnd::kMapExtension)) {
+    try {
+      for (const auto& [id, host] : direct::DirectFrontEnd::parse(*store, map)) {
+        ++info.directHosts;
+        info.directPoints += host.points.size();
+      }
+    } catch (const Error& e) {
+      info.directError = e.what();
+    }
+  }
   // "loop_edges" (libs/loopclosing): u64 count, then 16 bytes per edge.
   if (const std::string* edges = map.extension("loop_edges"); edges && edges->size() >= sizeof(std::uint64_t))
     info.loopEdges = (edges->size() - sizeof(std::uint64_t)) / 16;
@@ -172,6 +183,11 @@ nlohmann::json MapInfo::toJson() const {
                                     : nlohmann::json{{"error", linesError}};
   else
     j["lines"] = "none stored (a run without [Lines] enabled)";
+  if (extensions.count("direct_points"))
+    j["direct_points"] = directError.empty() ? nlohmann::json{{"points", directPoints}, {"hosts", directHosts}}
+                                             : nlohmann::json{{"error", directError}};
+  else
+    j["direct_points"] = "none stored (a run without [DirectFeatures] enabled)";
   j["loop_edges"] = loopEdges;
   j["keyframes"] = keyFrames;
   j["map_points"] = mapPoints;
@@ -208,6 +224,12 @@ std::string MapInfo::toText() const {
     os << "lines:        stored but unusable: " << linesError << "\n";
   else
     os << "lines:        " << lines << " (segments of " << lineKeyFrames << " keyframes)\n";
+  if (!extensions.count("direct_points"))
+    os << "direct:       none stored (a run without [DirectFeatures] enabled)\n";
+  else if (!directError.empty())
+    os << "direct:       stored but unusable: " << directError << "\n";
+  else
+    os << "direct:       " << directPoints << " points (hosted by " << directHosts << " keyframes)\n";
   os << "loop edges:   " << loopEdges << "\n";
   os << "keyframes:    " << keyFrames;
   if (keyFrames > 0)

@@ -60,6 +60,15 @@ TEST(SlamMapCli, InfoAndExport) {
   EXPECT_NE(text.out.find("keyframes:    5"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("format version 2"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("lines:        none stored"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("direct:       none stored"), std::string::npos) << text.out;
+  // Direct points that do not fit the map are named, not counted.
+  pslam::map::Map withDirect = m;
+  withDirect.setExtension("direct_points", "PSDP");
+  pslam::map::saveMap(withDirect, tmp.path / "d.slammap");
+  const CliRun direct = runCli("info " + (tmp.path / "d.slammap").string(), tmp.path);
+  EXPECT_EQ(direct.exitCode, 0) << direct.err;
+  EXPECT_NE(direct.out.find("direct:       stored but unusable: direct points: truncated (at version)"),
+            std::string::npos) << direct.out;
 
   const CliRun json = runCli("info " + file.string() + " --json", tmp.path);
   ASSERT_EQ(json.exitCode, 0) << json.err;

@@ -5,6 +5,8 @@
 // measures the points it sees (depth update of the keypoint model).
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
@@ -277,6 +279,91 @@ TEST(DirectFrontEnd, MissingImagesAreNamed) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("frame 4"), std::string::npos) << e.what();
   }
+}
+
+TEST(DirectFrontEnd, TheStoreSavedWithTheMapComesBackAndTracksWithoutItsImages) {
+  // map.slammap carries the direct points (extension "direct_points"): what comes back is every point that was not
+  // culled, with its landmark, model state and counters, byte for byte; without the host images the points still
+  // give a pose (their host intensities travel with them).
+  DirectFrontEnd fe(enabled(), model(landmarks::MapPointModel::Heuristic, false), testCamera(), 1.0);
+  TwoViews v = makeTwoViews(fe);
+  ASSERT_GT(fe.createPoints(v.map, v.kf0).created, 500);
+  tracking::Frame g = frameAt(0.1, 1);
+  const auto fs = fe.poseFactors(g, v.map, v.kf0);
+  fe.afterTracking(g, v.map, std::vector<bool>(fs.size(), false));  // counters move
+  const_cast<DirectMapPoint&>(fe.hosts().at(v.kf0).points[7]).bad = true;  // culled: not saved
+  const std::string bytes = fe.serialize();
+
+  DirectFrontEnd loaded(enabled(), model(landmarks::MapPointModel::Heuristic, false), testCamera(), 1.0);
+  loaded.restore(bytes, v.map);
+  EXPECT_EQ(loaded.numPoints(), fe.numPoints());
+  EXPECT_EQ(loaded.serialize(), bytes) << "saved again, the same bytes";
+  const DirectHost& host = loaded.hosts().at(v.kf0);
+  EXPECT_TRUE(host.grey.empty());
+  std::size_t compared = 0;
+  for (const DirectMapPoint& p : fe.hosts().at(v.kf0).points) {
+    if (p.bad) continue;
+    const DirectMapPoint& q = host.points.at(compared++);
+    EXPECT_EQ(q.landmark->pixel, p.landmark->pixel);
+    EXPECT_EQ(q.landmark->inverseDepth, p.landmark->inverseDepth);
+    EXPECT_EQ(q.landmark->hostIntensities, p.landmark->hostIntensities);
+    EXPECT_EQ(q.landmark->host, v.kf0);
+    EXPECT_EQ(q.state.mu, p.state.mu);
+    EXPECT_EQ(q.visible, p.visible);
+    EXPECT_EQ(q.found, p.found);
+  }
+  EXPECT_EQ(compared, host.points.size());
+
+  tracking::Frame f = frameAt(0.15, 10);
+  const Eigen::Isometry3d truth = f.T_cam_world;
+  Eigen::Isometry3d guess = truth;
+  guess.translation() += Eigen::Vector3d(0.03, -0.02, 0.03);
+  f.T_cam_world = guess;
+  const auto factors = loaded.poseFactors(f, v.map, v.kf0);
+  ASSERT_GT(factors.size(), 100u);
+  tracking::PoseSolveRequest request;
+  request.T_cam_world_initial = guess;
+  request.camera = f.camera;
+  const auto result = tracking::FullPoseSolver().solveCoarseToFine(request, factors, loaded.coarsestLevel());
+  EXPECT_LT((result.T_cam_world.translation() - truth.translation()).norm(), 0.005);
+}
+
+TEST(DirectFrontEnd, ADamagedStoreIsRefusedAndLeavesTheStoreAsItWas) {
+  DirectFrontEnd fe(enabled(), model(landmarks::MapPointModel::Heuristic, false), testCamera(), 1.0);
+  TwoViews v = makeTwoViews(fe);
+  ASSERT_GT(fe.createPoints(v.map, v.kf0).created, 500);
+  const std::string good = fe.serialize();
+  const std::size_t points = fe.numPoints();
+  // Offsets: magic 4 + version 1 + hosts 8 | host id 8 + affine 16 + points 8 | first point: pixel 16, ...
+  const std::size_t host = 13, firstPoint = host + 32;
+  auto withDouble = [&](std::size_t at, double value) {
+    std::string b = good;
+    std::memcpy(&b[at], &value, sizeof value);
+    return b;
+  };
+  std::string otherHost = good;
+  const std::uint64_t missing = 999;
+  std::memcpy(&otherHost[host], &missing, sizeof missing);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {good.substr(0, good.size() / 2), "direct points: truncated"},
+      {"PSLN" + good.substr(4), "direct points: not a direct point store (bad magic)"},
+      {good + "x", "direct points: unexpected bytes after the last host"},
+      {otherHost, "direct points: host keyframe 999 is not in the map"},
+      {withDouble(firstPoint, -5.0), "pixel outside the keyframe's image"},
+      {withDouble(firstPoint + 16, std::nan("")), "direct points: bearing is NaN or Inf"},
+      {withDouble(firstPoint + 16, 0.5), "bearing is not a unit vector"},
+      {withDouble(firstPoint + 40, -0.2), "inverse depth <= 0"},
+  };
+  for (const auto& [bytes, message] : cases) {
+    try {
+      fe.restore(bytes, v.map);
+      ADD_FAILURE() << "accepted: " << message;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(fe.numPoints(), points) << "the store is kept when the bytes are refused";
+  }
+  EXPECT_EQ(fe.serialize(), good);
 }
 
 }  // namespace

@@ -720,6 +720,11 @@ map::Map System::mapSnapshot() const {
               impl_->loopCloser->loopEdges().empty());
   else
     snapshot.eraseExtension(loopclosing::LoopCloser::kMapExtension);
+  if (impl_->directFrontEnd)
+    extension(direct::DirectFrontEnd::kMapExtension, impl_->directFrontEnd->serialize(),
+              impl_->directFrontEnd->numPoints() == 0);
+  else
+    snapshot.eraseExtension(direct::DirectFrontEnd::kMapExtension);
   return snapshot;
 }
 
@@ -755,9 +760,12 @@ void System::setMap(map::Map loaded, const std::string& source) {
   const std::string* lineStore = impl_->lineFrontEnd ? loaded.extension(lines::LineFrontEnd::kMapExtension) : nullptr;
   const std::string* loopEdges =
       impl_->loopCloser ? loaded.extension(loopclosing::LoopCloser::kMapExtension) : nullptr;
+  const std::string* directPoints =
+      impl_->directFrontEnd ? loaded.extension(direct::DirectFrontEnd::kMapExtension) : nullptr;
   try {
     if (lineStore) lines::LineFrontEnd(impl_->lineFrontEnd->params(), impl_->camera).restore(*lineStore, loaded);
     if (loopEdges) loopclosing::LoopCloser::parseLoopEdges(*loopEdges, loaded);
+    if (directPoints) direct::DirectFrontEnd::parse(*directPoints, loaded);
   } catch (const Error& e) {
     throw Error(source + ": " + e.what());
   }
@@ -767,10 +775,13 @@ void System::setMap(map::Map loaded, const std::string& source) {
   if (impl_->lineFrontEnd) impl_->lineFrontEnd->reset();
   impl_->tracker->onMapLoaded();
   impl_->newGeneration();  // resets loop closing
-  // The lines and loop edges the map was saved with (its extensions "lines", "loop_edges").
+  // The lines, loop edges and direct points the map was saved with (its extensions "lines", "loop_edges",
+  // "direct_points").
   if (lineStore) impl_->lineFrontEnd->restore(*impl_->map.extension(lines::LineFrontEnd::kMapExtension), impl_->map);
   if (loopEdges)
     impl_->loopCloser->restoreLoopEdges(*impl_->map.extension(loopclosing::LoopCloser::kMapExtension), impl_->map);
+  if (directPoints)
+    impl_->directFrontEnd->restore(*impl_->map.extension(direct::DirectFrontEnd::kMapExtension), impl_->map);
 }
 
 void System::setMappingEnabled(bool enabled) {

@@ -930,6 +930,11 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   if (direct_ && mapUpdates_) {
     ScopedStage st(timings, "direct_update");
     rep.direct = direct_->afterTracking(frame, map_, directOutliers_);
+  } else if (direct_) {
+    // Localization: the direct points stay as they were loaded (no measurements, counters or culling); the report
+    // still says what the pose used.
+    rep.direct.factors = directFactors_;
+    rep.direct.inliers = directInliers_;
   }
   if (lines_ && mapUpdates_) {
     ScopedStage st(timings, "line_update");

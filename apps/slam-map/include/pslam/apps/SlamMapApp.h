@@ -39,6 +39,8 @@ struct MapInfo {
   std::map<std::string, std::size_t> extensions;
   std::size_t lines = 0, lineKeyFrames = 0;  ///< the line store ("lines"): good lines, keyframes with segments
   std::string linesError;                    ///< why the stored lines do not fit the map (empty: they do)
+  std::size_t directPoints = 0, directHosts = 0;  ///< the direct points ("direct_points") and their host keyframes
+  std::string directError;                         ///< why the stored direct points do not fit the map
   std::size_t loopEdges = 0;                 ///< "loop_edges"
   std::size_t keyFrames = 0, mapPoints = 0, badPoints = 0, observations = 0;
   double firstStamp = 0, lastStamp = 0;     ///< keyframe timestamps

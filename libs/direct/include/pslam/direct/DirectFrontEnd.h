@@ -14,11 +14,12 @@
 //     into the frame, re-triangulated against the host -> one depth update of its model (§3.4.2);
 //   - local BA (§3.4.3): the active points hosted in the BA window join it with PhotometricBAFactor in every
 //     other window keyframe that sees them; the refined inverse depths become the filter means.
-// Points live in a DirectPointStore next to the map (not in map.slammap: a saved map has keypoints only).
+// Points live next to the map; map.slammap carries them as its extension "direct_points" (DirectStoreIO.cpp).
 // Everything is deterministic (ordered containers, fixed strides, no randomness).
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -177,6 +178,17 @@ class DirectFrontEnd : public tracking::DirectPointSource {
   /// Drops hosts whose keyframe left the map and images beyond keepImages.
   void prune(const map::Map& map);
   void reset();
+
+  /// The map extension that carries the direct points in map.slammap (map::Map::setExtension).
+  static constexpr const char* kMapExtension = "direct_points";
+  /// The points that are not culled, with their hosts' affine brightness (not their images), as bytes.
+  std::string serialize() const;
+  /// Replaces the store by `bytes` (serialize()) after checking every value and that each host is a keyframe of
+  /// `map`; pslam::Error "direct points: ..." and the store unchanged when they are damaged. The hosts come back
+  /// without images: their points track (host intensities) but are measured only from later keyframes.
+  void restore(const std::string& bytes, const map::Map& map);
+  /// The hosts and points of `bytes`, checked as restore() checks them (for loading and for `slam-map info`).
+  static std::map<map::KeyFrameId, DirectHost> parse(const std::string& bytes, const map::Map& map);
 
   /// May tracking / BA use the point (policy on its model and counters)?
   bool mayUse(const DirectMapPoint& point, map::KeyFrameId host) const;
