@@ -10,6 +10,7 @@
 #include "pslam/datasets/Dataset2RawlogApp.h"
 #include "pslam/datasets/PrefetchingRawlogReader.h"
 #include "pslam/system/System.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
@@ -17,8 +18,8 @@ using namespace pslam;
 TEST(ThreadedKittiData, UnpacedThreadedRunKeepsTheCameraThroughTheYoungMap) {
   const fs::path seq = fs::path(PRIORSLAM_SHARED_DATA_DIR) / "kitti_odometry" / "sequences" / "00";
   if (!fs::is_directory(seq)) GTEST_SKIP() << "shared data not found: " << seq;
-  const fs::path out = fs::temp_directory_path() / "pslam_test_threaded_kitti";
-  fs::remove_all(out);
+  const test_support::TempDir tmp("pslam_test_threaded_kitti");
+  const fs::path out = tmp.path;
   datasets::Dataset2RawlogOptions opt;
   opt.input = seq;
   opt.outDir = out;

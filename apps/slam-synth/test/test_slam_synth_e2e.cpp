@@ -15,6 +15,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "pslam_test/TestSupport.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -30,11 +32,10 @@ std::string slurp(const fs::path& p) {
 
 fs::path tool() { return fs::path(PRIORSLAM_BINARY_DIR) / "bin" / "slam-synth"; }
 
+/// A fresh folder for one test in this process's temporary folder (removed when the process ends).
 fs::path tempDir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("pslam_test_synth_e2e_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  static const pslam::test_support::TempDir root("pslam_test_synth_e2e");
+  return pslam::test_support::freshSubDir(root, name);
 }
 
 }  // namespace

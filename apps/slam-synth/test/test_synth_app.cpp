@@ -15,17 +15,18 @@
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/synth/SynthApp.h"
 
+#include "pslam_test/TestSupport.h"
+
 namespace fs = std::filesystem;
 using namespace pslam;
 using namespace pslam::synth;
 
 namespace {
 
+/// A fresh folder for one test in this process's temporary folder (removed when the process ends).
 fs::path tempDir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("pslam_test_synth_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  static const pslam::test_support::TempDir root("pslam_test_synth");
+  return pslam::test_support::freshSubDir(root, name);
 }
 
 SynthOptions small(const std::string& scenario, const fs::path& out, std::uint32_t seed, int frames = 3) {

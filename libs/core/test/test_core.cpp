@@ -8,16 +8,16 @@
 #include "pslam/core/Error.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/core/Trajectory.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
 
 namespace {
+/// A fresh folder for one test in this process's temporary folder (removed when the process ends).
 fs::path tempDir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("pslam_test_core_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  static const pslam::test_support::TempDir root("pslam_test_core");
+  return pslam::test_support::freshSubDir(root, name);
 }
 }  // namespace
 

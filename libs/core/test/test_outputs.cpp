@@ -19,16 +19,18 @@
 #include "pslam/core/Error.h"
 #include "pslam/core/GzipStream.h"
 
+#include "pslam_test/TestSupport.h"
+
 namespace fs = std::filesystem;
 using namespace pslam;
 
 namespace {
 
+/// A fresh folder for one test in this process's temporary folder (removed when the process ends; the forked
+/// children leave with _exit and do not remove it).
 fs::path tempDir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("pslam_test_outputs_" + std::to_string(::getpid()) + "_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  static const test_support::TempDir root("pslam_test_outputs");
+  return test_support::freshSubDir(root, name);
 }
 
 std::string readAll(const fs::path& p) {

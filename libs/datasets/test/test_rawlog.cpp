@@ -12,6 +12,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/datasets/PrefetchingRawlogReader.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
@@ -19,11 +20,10 @@ using namespace pslam::datasets;
 
 namespace {
 
+/// A fresh folder for one test in this process's temporary folder (removed when the process ends).
 fs::path tempDir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("pslam_test_rawlog_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  static const pslam::test_support::TempDir root("pslam_test_rawlog");
+  return pslam::test_support::freshSubDir(root, name);
 }
 
 Frame makeFrame(int i, bool colour, bool channels) {

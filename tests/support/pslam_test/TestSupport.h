@@ -28,6 +28,14 @@ struct TempDir {
   TempDir& operator=(const TempDir&) = delete;
 };
 
+/// An empty folder `name` in `root` (what was there before is removed); it goes when `root` does.
+inline std::filesystem::path freshSubDir(const TempDir& root, const std::string& name) {
+  const std::filesystem::path d = root.path / name;
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
 /// The message of the pslam::Error that `f` throws, or "" when it throws none.
 template <typename F>
 std::string errorOf(F&& f) {
