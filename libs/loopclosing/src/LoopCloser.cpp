@@ -39,7 +39,7 @@ nlohmann::json LoopReport::toJson() const {
     j["global_ba_ms"] = globalBaMs;
     j["global_ba_asynchronous"] = globalBaAsynchronous;
   }
-  if (skippedForGlobalBa) j["skipped_for_global_ba"] = true;
+  if (abortedGlobalBa) j["aborted_global_ba"] = true;
   return j;
 }
 
@@ -423,10 +423,18 @@ void LoopCloser::startGlobalBundleAdjustment(KeyFrameId loopKeyFrame) {
   // The job owns the copy; the thread reads only it. pending_ (and so the future) outlives the thread: reset(),
   // the destructor and applyGlobalBundleAdjustment() all wait for it.
   job->result = std::async(std::launch::async, [job, ba, ready] {
-    optimize::BAResult r = optimize::globalBundleAdjustment(job->problem, ba);
-    if (ready) ready();
+    optimize::BAResult r = optimize::globalBundleAdjustment(job->problem, ba, &job->stop);
+    job->done = true;
+    if (ready && !job->stop.load()) ready();  // a stopped BA is dropped: nobody waits for it
     return r;
   });
+}
+
+bool LoopCloser::abortGlobalBundleAdjustment() {
+  if (!pending_) return false;
+  pending_->stop = true;
+  pending_.reset();  // waits for the thread (std::future of std::async)
+  return true;
 }
 
 std::optional<nlohmann::json> LoopCloser::applyGlobalBundleAdjustment() {
@@ -490,12 +498,6 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
   for (const places::KeyFrameKey id : database_.keyFrames())
     if (!map_.hasKeyFrame(id)) database_.erase(id);
   if (!params_.enabled || !map_.hasKeyFrame(kfId) || map_.keyFrame(kfId).bow.empty()) return report;
-  if (pending_) {
-    // Threaded: the last loop's global BA still runs; the keyframe joins the database without a search.
-    database_.add(kfId, map_.keyFrame(kfId).bow);
-    report.skippedForGlobalBa = true;
-    return report;
-  }
   const bool tooEarly = static_cast<int>(map_.numKeyFrames()) < params_.minMapKeyFrames ||
                         (lastLoopKeyFrame_ != map::kNoKeyFrame &&
                          kfId < lastLoopKeyFrame_ + static_cast<KeyFrameId>(params_.minKeyFramesBetweenLoops));
@@ -510,6 +512,9 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
     const bool ok = verify(kfId, cand, S_cw, loopMatches, v);
     report.verified.push_back(v);
     if (!ok) continue;
+    // Threaded: the previous loop's global BA still runs on a copy of the map that lacks this correction; it is
+    // stopped and dropped, and this loop's global BA replaces it (ORB-SLAM's RunGlobalBundleAdjustment abort).
+    report.abortedGlobalBa = abortGlobalBundleAdjustment();
     report.closed = true;
     report.matchedKeyFrame = cand;
     report.scale = S_cw.s;

@@ -141,6 +141,43 @@ TEST(AsynchronousGlobalBa, AResetDropsARunningGlobalBa) {
   EXPECT_TRUE(f.map.keyFrame(f.scene.keyframes[4]).T_cam_world.matrix() == before.matrix());
 }
 
+TEST(AsynchronousGlobalBa, AbortStopsAndDropsTheRunningBaAndAnotherCanStart) {
+  // A loop closed while the previous loop's global BA runs stops that BA (ORB-SLAM's mbStopGBA): its result is
+  // dropped, the map keeps the correction it started from, and the new loop's BA can start.
+  Fixture f;
+  optimize::BundleAdjustmentParams ba;
+  loopclosing::LoopClosingParams p = enabled();
+  p.globalBAIterations = 1000;  // long enough to be running, or stopped, when the abort comes
+  loopclosing::LoopCloser closer(f.map, p, ba, 1);
+  int readyCalls = 0;
+  Ready second;
+  closer.setAsynchronousGlobalBa([&] {
+    ++readyCalls;
+    second.set();
+  });
+  EXPECT_FALSE(closer.abortGlobalBundleAdjustment()) << "nothing to abort";
+  const Eigen::Isometry3d before = f.map.keyFrame(f.scene.keyframes[4]).T_cam_world;
+  closer.startGlobalBundleAdjustment(f.scene.keyframes[4]);
+  EXPECT_TRUE(closer.abortGlobalBundleAdjustment());
+  EXPECT_FALSE(closer.globalBaPending());
+  EXPECT_FALSE(closer.globalBaFinished());
+  EXPECT_FALSE(closer.applyGlobalBundleAdjustment().has_value()) << "a stopped BA's result is dropped";
+  EXPECT_TRUE(f.map.keyFrame(f.scene.keyframes[4]).T_cam_world.matrix() == before.matrix());
+  EXPECT_LE(readyCalls, 1) << "a stopped BA signals at most the race it lost";
+  const int readyBefore = readyCalls;
+  {
+    std::lock_guard<std::mutex> lk(second.m);
+    second.ready = false;  // the stopped BA's thread has ended: no later call of its
+  }
+
+  closer.startGlobalBundleAdjustment(f.scene.keyframes[4]);
+  second.wait();
+  EXPECT_TRUE(closer.globalBaFinished());
+  EXPECT_EQ(readyCalls, readyBefore + 1);
+  ASSERT_TRUE(closer.applyGlobalBundleAdjustment().has_value());
+  EXPECT_FALSE(f.map.keyFrame(f.scene.keyframes[4]).T_cam_world.matrix() == before.matrix());
+}
+
 TEST(AsynchronousGlobalBa, StartingOneNeedsTheAsynchronousModeAndOneAtATime) {
   Fixture f;
   loopclosing::LoopCloser closer(f.map, enabled(), {}, 1);

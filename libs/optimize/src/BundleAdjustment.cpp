@@ -385,13 +385,14 @@ BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentP
   return run(problem, params, fixed, params.firstPassIterations, params.secondPassIterations, stop);
 }
 
-BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params) {
+BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params,
+                                const std::atomic<bool>* stop) {
   params.check();
   validate(problem);
   std::map<KeyFrameId, bool> fixed;
   for (const auto& [id, kf] : problem.keyframes) fixed[id] = kf.fixed;
   if (!fixed.empty()) fixed.begin()->second = true;  // the first keyframe defines the world frame
-  return run(problem, params, fixed, params.globalIterations, 0);
+  return run(problem, params, fixed, params.globalIterations, 0, stop);
 }
 
 Eigen::Vector2d observationResidual(const BAProblem& problem, const BAObservation& observation) {

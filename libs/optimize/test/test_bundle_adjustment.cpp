@@ -151,6 +151,25 @@ TEST(LocalBA, StopFlagEndsTheSolveEarlyAndSkipsTheSecondPass) {
   EXPECT_GE(stopped.finalCost, full.finalCost);
 }
 
+// The global BA honours the same flag (a loop closed while the previous loop's global BA runs stops it).
+TEST(GlobalBA, StopFlagEndsTheSolveEarly) {
+  const SyntheticBA s = problemWithOutliers();
+  BundleAdjustmentParams params;
+  params.globalIterations = 20;
+  const BAResult full = globalBundleAdjustment(s.problem, params);
+  std::atomic<bool> stop{false};
+  const BAResult unset = globalBundleAdjustment(s.problem, params, &stop);
+  EXPECT_FALSE(unset.stopped);
+  EXPECT_EQ(unset.iterations, full.iterations);
+  EXPECT_EQ(unset.inverseDepths, full.inverseDepths);
+  stop = true;
+  const BAResult stopped = globalBundleAdjustment(s.problem, params, &stop);
+  EXPECT_TRUE(stopped.stopped);
+  EXPECT_LE(stopped.iterations, 1) << "the solve went on after the stop request";
+  EXPECT_GT(full.iterations, 2);
+  EXPECT_EQ(stopped.poses.size(), full.poses.size());
+}
+
 TEST(LocalBA, RejectsInconsistentInput) {
   SyntheticOptions opt;
   opt.points = 50;

@@ -274,7 +274,7 @@ struct System::Impl {
         const loopclosing::LoopReport lr = loopCloser->processKeyFrame(kf);  // calls onLoopKeyFramesMoved
         mappingTimings.add("loop_closing", lr.ms);
         if (lr.closed && !lr.globalBaAsynchronous) mappingTimings.add("global_ba", lr.globalBaMs);
-        if (lr.candidates > 0 || lr.skippedForGlobalBa) {
+        if (lr.candidates > 0) {
           nlohmann::json j = lr.toJson();
           j["generation"] = generation;
           loops.push_back(std::move(j));
@@ -304,6 +304,13 @@ struct System::Impl {
         queueCv.wait(lk, [&] {
           return globalBa == GlobalBaState::Ready || !queue.empty() || (stop && globalBa == GlobalBaState::None);
         });
+        if (globalBa == GlobalBaState::Ready && loopCloser && loopCloser->globalBaPending() &&
+            !loopCloser->globalBaFinished()) {
+          // The Ready of a global BA that a later loop stopped (LoopCloser::abortGlobalBundleAdjustment); the
+          // later loop's BA runs. Its own Ready comes after this (the callback takes queueMutex, held here).
+          globalBa = GlobalBaState::Running;
+          continue;
+        }
         if (globalBa == GlobalBaState::Ready) {
           // A loop's global BA finished: written back between two keyframes, with the map lock held.
           busy = true;

@@ -5,6 +5,7 @@
 // candidate's neighbourhood), and the loop is corrected: the Sim(3) correction propagated to the keyframe's
 // neighbourhood, the duplicated points fused, the essential graph (spanning tree, covisibility >= 100, loop
 // edges) optimized over Sim(3), and a global bundle adjustment. Sequential: the caller holds the map.
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -78,9 +79,9 @@ struct LoopReport {
   /// its own thread, the BA itself is in GlobalBaReport) and whether it runs asynchronously.
   double globalBaMs = 0.0;
   bool globalBaAsynchronous = false;
-  /// Threaded: a loop found while the previous loop's global BA still runs is not looked for (ORB-SLAM aborts
-  /// that BA instead); the keyframe joins the database.
-  bool skippedForGlobalBa = false;
+  /// Threaded: the loop was closed while the previous loop's global BA still ran; that BA was stopped and its
+  /// result dropped (ORB-SLAM's), this loop's global BA covers both.
+  bool abortedGlobalBa = false;
   /// A closed loop's scale change of every keyframe: camera-frame lengths of keyframe k before the correction are
   /// keyFrameScales[k] x those after (what frames tracked relative to k rescale by). Not in toJson().
   std::map<map::KeyFrameId, double> keyFrameScales;
@@ -111,6 +112,12 @@ class LoopCloser {
   void startGlobalBundleAdjustment(map::KeyFrameId loopKeyFrame);
   /// A global BA started by a loop and not yet written back.
   bool globalBaPending() const { return pending_ != nullptr; }
+  /// The pending global BA has its result (applyGlobalBundleAdjustment() will not wait for the solver).
+  bool globalBaFinished() const { return pending_ && pending_->done.load(); }
+  /// Stops the pending global BA after its current iteration, waits for its thread and drops its result: the map
+  /// keeps the loop correction the BA started from. Returns whether one was pending. A loop closed while a global
+  /// BA runs calls it before its own correction (ORB-SLAM's mbStopGBA).
+  bool abortGlobalBundleAdjustment();
   /// Writes a finished global BA back (map lock held, between two keyframes' local mapping; waits for the BA if it
   /// still runs): the keyframes and points of the copy take its result, unless the map culled them or moved a
   /// point to another anchor meanwhile; keyframes made since follow the change of their spanning-tree parent (as
@@ -186,6 +193,8 @@ class LoopCloser {
     std::future<optimize::BAResult> result;
     map::KeyFrameId loopKeyFrame = map::kNoKeyFrame;
     std::chrono::steady_clock::time_point started;
+    std::atomic<bool> stop{false};  ///< set by abortGlobalBundleAdjustment(), read by the solver
+    std::atomic<bool> done{false};  ///< the solver returned (set before the ready callback)
   };
   std::unique_ptr<PendingGlobalBa> pending_;
 };

@@ -73,9 +73,11 @@ struct BAResult {
 BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {},
                                const std::atomic<bool>* stop = nullptr);
 
-/// Global BA of a (small, e.g. initial two-view) map: the keyframe with the lowest id is fixed in addition
-/// to any flagged ones, globalIterations with the Huber loss; outliers are reported, not removed.
-BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {});
+/// Global BA of a map: the keyframe with the lowest id is fixed in addition to any flagged ones, globalIterations
+/// with the Huber loss; outliers are reported, not removed. `stop`: as for localBundleAdjustment (a loop found
+/// while the previous loop's global BA runs stops it).
+BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {},
+                                const std::atomic<bool>* stop = nullptr);
 
 /// Whitened residual of one observation at the problem's current values (for tests and diagnostics).
 Eigen::Vector2d observationResidual(const BAProblem& problem, const BAObservation& observation);
