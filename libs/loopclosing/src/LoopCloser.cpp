@@ -38,6 +38,7 @@ nlohmann::json LoopReport::toJson() const {
     j["essential_graph_edges"] = essentialGraphEdges;
     j["global_ba_ms"] = globalBaMs;
     j["global_ba_asynchronous"] = globalBaAsynchronous;
+    if (!globalBa.is_null()) j["global_ba"] = globalBa;
   }
   if (abortedGlobalBa) j["aborted_global_ba"] = true;
   return j;
@@ -391,7 +392,11 @@ void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isomet
   }
   const auto t0 = std::chrono::steady_clock::now();
   if (!asynchronousGlobalBa_) {
-    optimize::globalBundleAdjustment(map_, globalBaParams());
+    // optimize::globalBundleAdjustment(map_, ...) spelled out, to report on the problem it solved.
+    const optimize::BAProblem problem = optimize::makeGlobalProblem(map_);
+    const optimize::BAResult result = optimize::globalBundleAdjustment(problem, globalBaParams());
+    optimize::applyResult(map_, problem, result, false);
+    report.globalBa = globalBaSummary(result, problem.observations.size());
     report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     moved(report, posesBeforeCorrection);
     return;
@@ -402,6 +407,15 @@ void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isomet
   startGlobalBundleAdjustment(report.keyFrame);
   report.globalBaAsynchronous = true;
   report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+nlohmann::json LoopCloser::globalBaSummary(const optimize::BAResult& result, std::size_t observations) {
+  return {{"iterations", result.iterations},
+          {"stopped", result.stopped},
+          {"rms_px_before", result.initialRmsPixels},
+          {"rms_px_after", result.finalRmsPixels},
+          {"observations", observations},
+          {"outliers", result.outliers.size()}};
 }
 
 optimize::BundleAdjustmentParams LoopCloser::globalBaParams() const {
@@ -488,7 +502,8 @@ std::optional<nlohmann::json> LoopCloser::applyGlobalBundleAdjustment() {
                         {"keyframes_made_meanwhile", keyFramesFollowed},
                         {"points_set", pointsSet},
                         {"points_fused_or_reanchored_meanwhile", pointsSkipped},
-                        {"points_left_at_non_positive_inverse_depth", pointsAtInfinity}};
+                        {"points_left_at_non_positive_inverse_depth", pointsAtInfinity},
+                        {"solver", globalBaSummary(result, job->problem.observations.size())}};
 }
 
 LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {

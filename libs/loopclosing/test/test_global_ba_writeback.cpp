@@ -105,6 +105,11 @@ TEST(AsynchronousGlobalBa, WritesBackTheInPlaceResultAndCarriesWhatChangedMeanwh
   EXPECT_EQ((*report)["keyframes_set"], 4);  // every keyframe of the copy but the fixed root
   EXPECT_EQ((*report)["keyframes_made_meanwhile"], 1);
   EXPECT_EQ((*report)["points_fused_or_reanchored_meanwhile"], 1);
+  const nlohmann::json& solver = (*report)["solver"];
+  EXPECT_GT(solver["iterations"].get<int>(), 0);
+  EXPECT_FALSE(solver["stopped"].get<bool>());
+  EXPECT_LT(solver["rms_px_after"].get<double>(), solver["rms_px_before"].get<double>()) << solver.dump();
+  EXPECT_GT(solver["observations"].get<int>(), 1000);
 
   // The copy's keyframes and points: the in-place result, bit for bit (the same problem, the same solver).
   for (int slot = 0; slot < 5; ++slot) {

@@ -79,6 +79,8 @@ struct LoopReport {
   /// its own thread, the BA itself is in GlobalBaReport) and whether it runs asynchronously.
   double globalBaMs = 0.0;
   bool globalBaAsynchronous = false;
+  /// Sequential mode: the global BA's solver summary (globalBaSummary()); threaded, it is in GlobalBaReport.
+  nlohmann::json globalBa;
   /// Threaded: the loop was closed while the previous loop's global BA still ran; that BA was stopped and its
   /// result dropped (ORB-SLAM's), this loop's global BA covers both.
   bool abortedGlobalBa = false;
@@ -169,6 +171,9 @@ class LoopCloser {
                                                             const std::vector<map::MapPointId>& points,
                                                             const std::set<std::size_t>& taken, float radius) const;
   bool usablePoint(map::MapPointId id) const;
+  /// What a global BA's solver did (report.json): iterations, whether it was stopped, the reprojection RMS of its
+  /// inlier observations before and after (pixels), observations and outliers.
+  static nlohmann::json globalBaSummary(const optimize::BAResult& result, std::size_t observations);
   /// The BA parameters of a loop's global BA (params_.globalBAIterations iterations, at least 1).
   optimize::BundleAdjustmentParams globalBaParams() const;
   /// Step 5 of correct(): the global BA, in place or started on its own thread; calls keyFramesMoved_.
