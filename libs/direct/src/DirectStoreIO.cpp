@@ -64,8 +64,9 @@ std::string DirectFrontEnd::serialize() const {
   return w.take();
 }
 
-void DirectFrontEnd::restore(const std::string& bytes, const map::Map& map) {
-  std::map<map::KeyFrameId, DirectHost> hosts = parse(bytes, map);
+void DirectFrontEnd::restore(const std::string& bytes, const map::Map& map) { restore(parse(bytes, map)); }
+
+void DirectFrontEnd::restore(std::map<map::KeyFrameId, DirectHost> hosts) {
   reset();
   hosts_ = std::move(hosts);
 }

@@ -769,10 +769,11 @@ void System::setMap(map::Map loaded, const std::string& source) {
       impl_->loopCloser ? loaded.extension(loopclosing::LoopCloser::kMapExtension) : nullptr;
   const std::string* directPoints =
       impl_->directFrontEnd ? loaded.extension(direct::DirectFrontEnd::kMapExtension) : nullptr;
+  std::map<map::KeyFrameId, direct::DirectHost> directHosts;
   try {
     if (lineStore) lines::LineFrontEnd(impl_->lineFrontEnd->params(), impl_->camera).restore(*lineStore, loaded);
     if (loopEdges) loopclosing::LoopCloser::parseLoopEdges(*loopEdges, loaded);
-    if (directPoints) direct::DirectFrontEnd::parse(*directPoints, loaded);
+    if (directPoints) directHosts = direct::DirectFrontEnd::parse(*directPoints, loaded);
   } catch (const Error& e) {
     throw Error(source + ": " + e.what());
   }
@@ -787,8 +788,7 @@ void System::setMap(map::Map loaded, const std::string& source) {
   if (lineStore) impl_->lineFrontEnd->restore(*impl_->map.extension(lines::LineFrontEnd::kMapExtension), impl_->map);
   if (loopEdges)
     impl_->loopCloser->restoreLoopEdges(*impl_->map.extension(loopclosing::LoopCloser::kMapExtension), impl_->map);
-  if (directPoints)
-    impl_->directFrontEnd->restore(*impl_->map.extension(direct::DirectFrontEnd::kMapExtension), impl_->map);
+  if (directPoints) impl_->directFrontEnd->restore(std::move(directHosts));
 }
 
 void System::setMappingEnabled(bool enabled) {

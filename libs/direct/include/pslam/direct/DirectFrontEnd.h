@@ -189,6 +189,8 @@ class DirectFrontEnd : public tracking::DirectPointSource {
   void restore(const std::string& bytes, const map::Map& map);
   /// The hosts and points of `bytes`, checked as restore() checks them (for loading and for `slam-map info`).
   static std::map<map::KeyFrameId, DirectHost> parse(const std::string& bytes, const map::Map& map);
+  /// Replaces the store by hosts parse() returned (their keyframes must be in the map the front end tracks in).
+  void restore(std::map<map::KeyFrameId, DirectHost> hosts);
 
   /// May tracking / BA use the point (policy on its model and counters)?
   bool mayUse(const DirectMapPoint& point, map::KeyFrameId host) const;
