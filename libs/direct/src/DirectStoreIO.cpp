@@ -7,8 +7,9 @@
 //       | keypoint model: f64 mu, sigma2, aObs, bObs | 3 f64 semantic NLL | u32 depth updates | u32 semantic updates
 //       | u32 visible | u32 found | u32 updates
 // Culled points are not written. The host images are not either: a loaded point tracks with the host intensities
-// it carries (the photometric error, eq. 3.6) but is measured again (optical flow from its host) only in keyframes
-// made after the load. restore() checks every count, value and cross-reference before it replaces the store.
+// it carries (the photometric error, eq. 3.6) but is never measured again (the optical flow from its host needs the
+// host image); only points hosted by keyframes made after the load are. restore() checks every count, value and
+// cross-reference before it replaces the store.
 #include <cmath>
 
 #include "pslam/core/ByteCodec.h"
@@ -88,8 +89,10 @@ std::map<map::KeyFrameId, DirectHost> DirectFrontEnd::parse(const std::string& b
     DirectHost host;
     host.affine.a = r.finite("affine a");
     host.affine.b = r.finite("affine b");
-    const std::uint64_t nPoints = r.count("point", kMaxPointsPerHost);
-    host.points.reserve(nPoints);
+    // The front end clamps a frame's log-gain to [-1, 1] (DirectFrontEnd::poseFactors); outside it exp(-a) in the
+    // photometric error would turn a corrupt value into NaN residuals instead of an error here.
+    if (std::abs(host.affine.a) > 1.0) r.fail(ctx + ": affine a outside [-1, 1]");
+    const std::uint64_t nPoints = r.count("point", kMaxPointsPerHost);  // no reserve: the count is not trusted yet
     for (std::uint64_t i = 0; i < nPoints; ++i) {
       auto l = std::make_shared<optimize::DirectLandmark>();
       l->host = id;

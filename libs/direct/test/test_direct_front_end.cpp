@@ -349,6 +349,7 @@ TEST(DirectFrontEnd, ADamagedStoreIsRefusedAndLeavesTheStoreAsItWas) {
       {"PSLN" + good.substr(4), "direct points: not a direct point store (bad magic)"},
       {good + "x", "direct points: unexpected bytes after the last host"},
       {otherHost, "direct points: host keyframe 999 is not in the map"},
+      {withDouble(host + 8, 5.0), "affine a outside [-1, 1]"},
       {withDouble(firstPoint, -5.0), "pixel outside the keyframe's image"},
       {withDouble(firstPoint + 16, std::nan("")), "direct points: bearing is NaN or Inf"},
       {withDouble(firstPoint + 16, 0.5), "bearing is not a unit vector"},

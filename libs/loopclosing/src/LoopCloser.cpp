@@ -54,6 +54,7 @@ LoopCloser::~LoopCloser() = default;  // a running global BA is waited for (std:
 
 void LoopCloser::reset() {
   pending_.reset();  // waits for a running global BA; its result belongs to the old map
+  stopped_.clear();  // and for the stopped ones
   database_.clear();
   groups_.clear();
   lastLoopKeyFrame_ = map::kNoKeyFrame;
@@ -427,6 +428,7 @@ optimize::BundleAdjustmentParams LoopCloser::globalBaParams() const {
 void LoopCloser::startGlobalBundleAdjustment(KeyFrameId loopKeyFrame) {
   require(asynchronousGlobalBa_, "loop closing", "startGlobalBundleAdjustment needs setAsynchronousGlobalBa");
   require(!pending_, "loop closing", "a global BA is already running");
+  reapStoppedGlobalBas();
   const optimize::BundleAdjustmentParams ba = globalBaParams();
   pending_ = std::make_unique<PendingGlobalBa>();
   PendingGlobalBa* job = pending_.get();
@@ -447,11 +449,17 @@ void LoopCloser::startGlobalBundleAdjustment(KeyFrameId loopKeyFrame) {
 bool LoopCloser::abortGlobalBundleAdjustment() {
   if (!pending_) return false;
   pending_->stop = true;
-  pending_.reset();  // waits for the thread (std::future of std::async)
+  stopped_.push_back(std::move(pending_));  // joined later: waiting here would hold the map lock for an iteration
   return true;
 }
 
+void LoopCloser::reapStoppedGlobalBas() {
+  stopped_.erase(std::remove_if(stopped_.begin(), stopped_.end(), [](const auto& job) { return job->done.load(); }),
+                 stopped_.end());
+}
+
 std::optional<nlohmann::json> LoopCloser::applyGlobalBundleAdjustment() {
+  reapStoppedGlobalBas();
   if (!pending_) return std::nullopt;
   const std::unique_ptr<PendingGlobalBa> job = std::move(pending_);
   const optimize::BAResult result = job->result.get();

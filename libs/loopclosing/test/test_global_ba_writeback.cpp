@@ -163,16 +163,19 @@ TEST(AsynchronousGlobalBa, AbortStopsAndDropsTheRunningBaAndAnotherCanStart) {
   EXPECT_FALSE(closer.abortGlobalBundleAdjustment()) << "nothing to abort";
   const Eigen::Isometry3d before = f.map.keyFrame(f.scene.keyframes[4]).T_cam_world;
   closer.startGlobalBundleAdjustment(f.scene.keyframes[4]);
-  EXPECT_TRUE(closer.abortGlobalBundleAdjustment());
+  EXPECT_TRUE(closer.abortGlobalBundleAdjustment());  // does not wait for the thread
   EXPECT_FALSE(closer.globalBaPending());
-  EXPECT_FALSE(closer.globalBaFinished());
   EXPECT_FALSE(closer.applyGlobalBundleAdjustment().has_value()) << "a stopped BA's result is dropped";
+  // A new loop's BA may start while the stopped one's thread still ends its iteration.
+  closer.startGlobalBundleAdjustment(f.scene.keyframes[4]);
+  EXPECT_TRUE(closer.abortGlobalBundleAdjustment());
+  closer.reset();  // joins the stopped threads
   EXPECT_TRUE(f.map.keyFrame(f.scene.keyframes[4]).T_cam_world.matrix() == before.matrix());
-  EXPECT_LE(readyCalls, 1) << "a stopped BA signals at most the race it lost";
+  EXPECT_LE(readyCalls, 2) << "a stopped BA signals at most the race it lost";
   const int readyBefore = readyCalls;
   {
     std::lock_guard<std::mutex> lk(second.m);
-    second.ready = false;  // the stopped BA's thread has ended: no later call of its
+    second.ready = false;  // the stopped BAs' threads have ended: no later call of theirs
   }
 
   closer.startGlobalBundleAdjustment(f.scene.keyframes[4]);

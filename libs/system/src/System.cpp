@@ -158,6 +158,7 @@ struct System::Impl {
     {
       std::lock_guard<std::mutex> lk(queueMutex);
       globalBa = GlobalBaState::Ready;
+      ++globalBaSignals;
     }
     queueCv.notify_all();
   }
@@ -227,6 +228,9 @@ struct System::Impl {
       queueCv.notify_all();
       worker.join();
     }
+    // Global BAs a later loop stopped may still be ending their iteration; their callback takes queueMutex, which
+    // is destroyed before loopCloser.
+    if (loopCloser) loopCloser->reset();
   }
 
   /// Runs local mapping on `kfs` (caller holds mapMutex in threaded mode).
@@ -304,24 +308,25 @@ struct System::Impl {
         queueCv.wait(lk, [&] {
           return globalBa == GlobalBaState::Ready || !queue.empty() || (stop && globalBa == GlobalBaState::None);
         });
-        if (globalBa == GlobalBaState::Ready && loopCloser && loopCloser->globalBaPending() &&
-            !loopCloser->globalBaFinished()) {
-          // The Ready of a global BA that a later loop stopped (LoopCloser::abortGlobalBundleAdjustment); the
-          // later loop's BA runs. Its own Ready comes after this (the callback takes queueMutex, held here).
-          globalBa = GlobalBaState::Running;
-          continue;
-        }
         if (globalBa == GlobalBaState::Ready) {
           // A loop's global BA finished: written back between two keyframes, with the map lock held.
+          const std::uint64_t signalsSeen = globalBaSignals;
           busy = true;
           lk.unlock();
+          bool stale = false;
           {
             std::lock_guard<std::mutex> mk(mapMutex);
-            applyGlobalBa();
+            // Unless the Ready came from a BA that a later loop stopped (LoopCloser::abortGlobalBundleAdjustment, a
+            // race the stop can lose) while the later loop's BA still runs: never wait on the solver here.
+            stale = loopCloser && loopCloser->globalBaPending() && !loopCloser->globalBaFinished();
+            if (!stale) applyGlobalBa();
           }
           lk.lock();
           busy = false;
-          globalBa = GlobalBaState::None;
+          if (!stale)
+            globalBa = GlobalBaState::None;  // new BAs start on this thread only: none signalled meanwhile
+          else if (globalBaSignals == signalsSeen)
+            globalBa = GlobalBaState::Running;  // else the running BA signalled meanwhile: Ready stays
           lk.unlock();
           queueCv.notify_all();
           continue;
@@ -410,6 +415,7 @@ struct System::Impl {
   /// Threaded: a loop's global BA on its own thread (LoopCloser::setAsynchronousGlobalBa), guarded by queueMutex.
   enum class GlobalBaState { None, Running, Ready };
   GlobalBaState globalBa = GlobalBaState::None;
+  std::uint64_t globalBaSignals = 0;  ///< ready callbacks so far (queueMutex)
   nlohmann::json globalBaLog = nlohmann::json::array();  ///< report.json "global_ba": one entry per BA written back
   bool stop = false;
   std::thread worker;

@@ -185,7 +185,7 @@ class DirectFrontEnd : public tracking::DirectPointSource {
   std::string serialize() const;
   /// Replaces the store by `bytes` (serialize()) after checking every value and that each host is a keyframe of
   /// `map`; pslam::Error "direct points: ..." and the store unchanged when they are damaged. The hosts come back
-  /// without images: their points track (host intensities) but are measured only from later keyframes.
+  /// without images: their points track (host intensities) but are not measured again.
   void restore(const std::string& bytes, const map::Map& map);
   /// The hosts and points of `bytes`, checked as restore() checks them (for loading and for `slam-map info`).
   static std::map<map::KeyFrameId, DirectHost> parse(const std::string& bytes, const map::Map& map);

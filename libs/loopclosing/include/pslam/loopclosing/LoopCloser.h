@@ -116,9 +116,11 @@ class LoopCloser {
   bool globalBaPending() const { return pending_ != nullptr; }
   /// The pending global BA has its result (applyGlobalBundleAdjustment() will not wait for the solver).
   bool globalBaFinished() const { return pending_ && pending_->done.load(); }
-  /// Stops the pending global BA after its current iteration, waits for its thread and drops its result: the map
-  /// keeps the loop correction the BA started from. Returns whether one was pending. A loop closed while a global
-  /// BA runs calls it before its own correction (ORB-SLAM's mbStopGBA).
+  /// Stops the pending global BA after its current iteration and drops its result: the map keeps the loop
+  /// correction the BA started from. Returns whether one was pending. It does not wait (it is called with the map
+  /// lock held): the stopped job's thread ends on its own and is joined later (reset(), the destructor, or the next
+  /// start / write-back once it has ended). A loop closed while a global BA runs calls it before its own correction
+  /// (ORB-SLAM's mbStopGBA, which detaches the thread).
   bool abortGlobalBundleAdjustment();
   /// Writes a finished global BA back (map lock held, between two keyframes' local mapping; waits for the BA if it
   /// still runs): the keyframes and points of the copy take its result, unless the map culled them or moved a
@@ -195,13 +197,18 @@ class LoopCloser {
   std::function<void()> globalBaReady_;
   struct PendingGlobalBa {
     optimize::BAProblem problem;
-    std::future<optimize::BAResult> result;
     map::KeyFrameId loopKeyFrame = map::kNoKeyFrame;
     std::chrono::steady_clock::time_point started;
     std::atomic<bool> stop{false};  ///< set by abortGlobalBundleAdjustment(), read by the solver
     std::atomic<bool> done{false};  ///< the solver returned (set before the ready callback)
+    /// Declared last, so destroyed first: its destructor waits for the thread, which reads the members above.
+    std::future<optimize::BAResult> result;
   };
   std::unique_ptr<PendingGlobalBa> pending_;
+  /// Stopped global BAs whose threads may still be ending their current iteration (never applied).
+  std::vector<std::unique_ptr<PendingGlobalBa>> stopped_;
+  /// Joins the stopped jobs whose solver has returned.
+  void reapStoppedGlobalBas();
 };
 
 }  // namespace pslam::loopclosing
