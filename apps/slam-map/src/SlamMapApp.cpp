@@ -14,6 +14,7 @@
 #include "pslam/landmarks/KeypointModel.h"
 #include "pslam/direct/DirectFrontEnd.h"
 #include "pslam/lines/LineFrontEnd.h"
+#include "pslam/loopclosing/LoopCloser.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/mapping/LocalMapper.h"
 
@@ -119,9 +120,13 @@ MapInfo mapInfo(const map::Map& map, const fs::path& file) {
       info.directError = e.what();
     }
   }
-  // "loop_edges" (libs/loopclosing): u64 count, then 16 bytes per edge.
-  if (const std::string* edges = map.extension("loop_edges"); edges && edges->size() >= sizeof(std::uint64_t))
-    info.loopEdges = (edges->size() - sizeof(std::uint64_t)) / 16;
+  if (const std::string* edges = map.extension(loopclosing::LoopCloser::kMapExtension)) {
+    try {
+      info.loopEdges = loopclosing::LoopCloser::parseLoopEdges(*edges, map).size();
+    } catch (const Error& e) {
+      info.loopEdgesError = e.what();
+    }
+  }
   info.keyFrames = map.numKeyFrames();
   info.mapPoints = map.numMapPoints();
   if (!map.keyFrames().empty()) info.camera = map.keyFrames().begin()->second.camera;
@@ -167,6 +172,21 @@ MapInfo mapInfo(const map::Map& map, const fs::path& file) {
   return info;
 }
 
+namespace {
+constexpr const char* kNoLines = "none stored (a run without [Lines] enabled)";
+constexpr const char* kNoDirect = "none stored (a run without [DirectFeatures] enabled)";
+
+/// What `info` says of one map extension: absent, stored but unusable (why), or what it holds.
+std::string storedText(bool stored, const char* absent, const std::string& error, const std::string& holds) {
+  if (!stored) return absent;
+  return error.empty() ? holds : "stored but unusable: " + error;
+}
+nlohmann::json storedJson(bool stored, const char* absent, const std::string& error, nlohmann::json holds) {
+  if (!stored) return absent;
+  return error.empty() ? std::move(holds) : nlohmann::json{{"error", error}};
+}
+}  // namespace
+
 nlohmann::json MapInfo::toJson() const {
   nlohmann::json j;
   j["file"] = file.string();
@@ -178,17 +198,12 @@ nlohmann::json MapInfo::toJson() const {
   nlohmann::json ext = nlohmann::json::object();
   for (const auto& [name, bytes] : extensions) ext[name] = bytes;
   j["extensions"] = ext;
-  if (extensions.count("lines"))
-    j["lines"] = linesError.empty() ? nlohmann::json{{"lines", lines}, {"keyframes", lineKeyFrames}}
-                                    : nlohmann::json{{"error", linesError}};
-  else
-    j["lines"] = "none stored (a run without [Lines] enabled)";
-  if (extensions.count("direct_points"))
-    j["direct_points"] = directError.empty() ? nlohmann::json{{"points", directPoints}, {"hosts", directHosts}}
-                                             : nlohmann::json{{"error", directError}};
-  else
-    j["direct_points"] = "none stored (a run without [DirectFeatures] enabled)";
+  j["lines"] = storedJson(extensions.count(lines::LineFrontEnd::kMapExtension) > 0, kNoLines, linesError,
+                          {{"lines", lines}, {"keyframes", lineKeyFrames}});
+  j["direct_points"] = storedJson(extensions.count(direct::DirectFrontEnd::kMapExtension) > 0, kNoDirect, directError,
+                                  {{"points", directPoints}, {"hosts", directHosts}});
   j["loop_edges"] = loopEdges;
+  if (!loopEdgesError.empty()) j["loop_edges_error"] = loopEdgesError;
   j["keyframes"] = keyFrames;
   j["map_points"] = mapPoints;
   j["bad_points"] = badPoints;
@@ -218,19 +233,15 @@ std::string MapInfo::toText() const {
      << ", " << camera.width << "x" << camera.height << "\n";
   os << "vocabulary:   " << (vocabulary.empty() ? std::string("none recorded (built without one)") : vocabulary)
      << "\n";
-  if (!extensions.count("lines"))
-    os << "lines:        none stored (a run without [Lines] enabled)\n";
-  else if (!linesError.empty())
-    os << "lines:        stored but unusable: " << linesError << "\n";
-  else
-    os << "lines:        " << lines << " (segments of " << lineKeyFrames << " keyframes)\n";
-  if (!extensions.count("direct_points"))
-    os << "direct:       none stored (a run without [DirectFeatures] enabled)\n";
-  else if (!directError.empty())
-    os << "direct:       stored but unusable: " << directError << "\n";
-  else
-    os << "direct:       " << directPoints << " points (hosted by " << directHosts << " keyframes)\n";
-  os << "loop edges:   " << loopEdges << "\n";
+  os << "lines:        "
+     << storedText(extensions.count(lines::LineFrontEnd::kMapExtension) > 0, kNoLines, linesError,
+                   std::to_string(lines) + " (segments of " + std::to_string(lineKeyFrames) + " keyframes)")
+     << "\n";
+  os << "direct:       "
+     << storedText(extensions.count(direct::DirectFrontEnd::kMapExtension) > 0, kNoDirect, directError,
+                   std::to_string(directPoints) + " points (hosted by " + std::to_string(directHosts) + " keyframes)")
+     << "\n";
+  os << "loop edges:   " << storedText(true, "", loopEdgesError, std::to_string(loopEdges)) << "\n";
   os << "keyframes:    " << keyFrames;
   if (keyFrames > 0)
     os << " (timestamps " << fmt(firstStamp, 6) << " .. " << fmt(lastStamp, 6) << ", path " << fmt(keyFramePathLength)

@@ -29,8 +29,7 @@ constexpr std::uint64_t kMaxLevels = 16;
 
 std::string DirectFrontEnd::serialize() const {
   ByteWriter w;
-  for (char c : kMagic) w.put(c);
-  w.put(kVersion);
+  w.putHeader(kMagic, kVersion);
   w.put<std::uint64_t>(hosts_.size());
   for (const auto& [id, host] : hosts_) {
     w.put<std::uint64_t>(id);
@@ -74,11 +73,7 @@ void DirectFrontEnd::restore(std::map<map::KeyFrameId, DirectHost> hosts) {
 
 std::map<map::KeyFrameId, DirectHost> DirectFrontEnd::parse(const std::string& bytes, const map::Map& map) {
   ByteReader r(bytes, "direct points");
-  r.magic(kMagic, "a direct point store");
-  const auto version = r.get<std::uint8_t>("version");
-  if (version != kVersion)
-    r.fail("unsupported direct point store version " + std::to_string(version) + " (this build reads " +
-           std::to_string(kVersion) + ")");
+  r.header(kMagic, kVersion, "direct point store");
   std::map<map::KeyFrameId, DirectHost> hosts;
   const std::uint64_t nHosts = r.count("host", kMaxHosts);
   for (std::uint64_t h = 0; h < nHosts; ++h) {

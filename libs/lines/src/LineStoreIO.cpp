@@ -27,8 +27,7 @@ constexpr std::uint64_t kMaxDescriptorBytes = 256;
 
 std::string LineFrontEnd::serialize() const {
   ByteWriter w;
-  for (char c : kMagic) w.put(c);
-  w.put(kVersion);
+  w.putHeader(kMagic, kVersion);
   w.put<std::uint64_t>(nextId_);
   w.put<std::uint64_t>(keyframesAdded_);
   w.put<std::uint64_t>(keyframes_.size());
@@ -72,11 +71,7 @@ std::string LineFrontEnd::serialize() const {
 void LineFrontEnd::restore(const std::string& bytes, const map::Map& map) {
   reset();
   ByteReader r(bytes, "lines");
-  r.magic(kMagic, "a line store");
-  const auto version = r.get<std::uint8_t>("version");
-  if (version != kVersion)
-    throw Error("lines: unsupported line store version " + std::to_string(version) + " (this build reads " +
-                std::to_string(kVersion) + ")");
+  r.header(kMagic, kVersion, "line store");
   std::map<std::uint64_t, MapLine> lines;
   std::map<map::KeyFrameId, LineKeyFrame> keyframes;
   const auto nextId = r.get<std::uint64_t>("next id");

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 
+#include "pslam/core/ByteCodec.h"
 #include "pslam/core/Error.h"
 #include "pslam/features/Matching.h"
 #include "pslam/geometry/Sim3Solver.h"
@@ -62,17 +62,16 @@ void LoopCloser::reset() {
 }
 
 std::string LoopCloser::serializeLoopEdges() const {
-  std::string bytes;
-  auto put = [&](std::uint64_t v) { bytes.append(reinterpret_cast<const char*>(&v), sizeof v); };
   std::vector<std::pair<KeyFrameId, KeyFrameId>> kept;
   for (const auto& e : loopEdges_)
     if (map_.hasKeyFrame(e.first) && map_.hasKeyFrame(e.second)) kept.push_back(e);
-  put(kept.size());
+  ByteWriter w;
+  w.put<std::uint64_t>(kept.size());
   for (const auto& [a, b] : kept) {
-    put(a);
-    put(b);
+    w.put<std::uint64_t>(a);
+    w.put<std::uint64_t>(b);
   }
-  return bytes;
+  return w.take();
 }
 
 void LoopCloser::restoreLoopEdges(const std::string& bytes, const map::Map& map) {
@@ -82,25 +81,16 @@ void LoopCloser::restoreLoopEdges(const std::string& bytes, const map::Map& map)
 
 std::vector<std::pair<KeyFrameId, KeyFrameId>> LoopCloser::parseLoopEdges(const std::string& bytes,
                                                                           const map::Map& map) {
-  std::size_t pos = 0;
-  auto get = [&] {
-    std::uint64_t v = 0;
-    if (bytes.size() - pos < sizeof v) throw Error("loop edges: truncated");
-    std::memcpy(&v, bytes.data() + pos, sizeof v);
-    pos += sizeof v;
-    return v;
-  };
-  const std::uint64_t n = get();
-  if (n > bytes.size() / 16) throw Error("loop edges: implausible count " + std::to_string(n));
+  ByteReader r(bytes, "loop edges");
+  const std::uint64_t n = r.count("edge", bytes.size() / 16);
   std::vector<std::pair<KeyFrameId, KeyFrameId>> edges;
   for (std::uint64_t i = 0; i < n; ++i) {
-    const KeyFrameId a = get(), b = get();
+    const auto a = r.get<std::uint64_t>("edge"), b = r.get<std::uint64_t>("edge");
     if (a == b || !map.hasKeyFrame(a) || !map.hasKeyFrame(b))
-      throw Error("loop edges: edge " + std::to_string(a) + " - " + std::to_string(b) +
-                  " does not join two keyframes of the map");
+      r.fail("edge " + std::to_string(a) + " - " + std::to_string(b) + " does not join two keyframes of the map");
     edges.emplace_back(a, b);
   }
-  if (pos != bytes.size()) throw Error("loop edges: unexpected bytes after the last edge");
+  if (!r.atEnd()) r.fail("unexpected bytes after the last edge");
   return edges;
 }
 

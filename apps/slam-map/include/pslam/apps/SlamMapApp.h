@@ -42,6 +42,7 @@ struct MapInfo {
   std::size_t directPoints = 0, directHosts = 0;  ///< the direct points ("direct_points") and their host keyframes
   std::string directError;                         ///< why the stored direct points do not fit the map
   std::size_t loopEdges = 0;                 ///< "loop_edges"
+  std::string loopEdgesError;                ///< why the stored loop edges do not fit the map
   std::size_t keyFrames = 0, mapPoints = 0, badPoints = 0, observations = 0;
   double firstStamp = 0, lastStamp = 0;     ///< keyframe timestamps
   double keyFramePathLength = 0;            ///< along the keyframe centres in timestamp order (map units)

@@ -21,6 +21,11 @@ class ByteWriter {
   }
   void putBytes(const unsigned char* p, std::size_t n) { bytes_.append(reinterpret_cast<const char*>(p), n); }
   void putFlag(bool v) { put<std::uint8_t>(v ? 1 : 0); }
+  /// Four magic characters and a u8 version: the header of a blob (ByteReader::header reads it).
+  void putHeader(const char (&magic)[4], std::uint8_t version) {
+    for (char c : magic) put(c);
+    put(version);
+  }
   std::string take() { return std::move(bytes_); }
 
  private:
@@ -63,10 +68,15 @@ class ByteReader {
     if (v > 1) fail("flag '" + std::string(what) + "' is " + std::to_string(v) + " (expected 0 or 1)");
     return v == 1;
   }
-  /// Four magic characters.
-  void magic(const char (&expected)[4], const char* what) {
+  /// The header ByteWriter::putHeader wrote: `expected` magic ("not a <what> (bad magic)" otherwise) and `version`
+  /// ("unsupported <what> version N (this build reads M)" otherwise).
+  void header(const char (&expected)[4], std::uint8_t version, const char* what) {
     for (char c : expected)
-      if (get<char>("magic") != c) fail(std::string("not ") + what + " (bad magic)");
+      if (get<char>("magic") != c) fail(std::string("not a ") + what + " (bad magic)");
+    const auto v = get<std::uint8_t>("version");
+    if (v != version)
+      fail(std::string("unsupported ") + what + " version " + std::to_string(v) + " (this build reads " +
+           std::to_string(version) + ")");
   }
   bool atEnd() const { return pos_ == b_.size(); }
   [[noreturn]] void fail(const std::string& message) const { throw Error(context_ + ": " + message); }

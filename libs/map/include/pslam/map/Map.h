@@ -142,8 +142,9 @@ class Map {
 
   // ---- what other libraries keep beside the map (serialized, format 2) ----
   /// Named opaque byte blobs: the landmark kinds and graph edges that live outside the map proper (the line store
-  /// of libs/lines as "lines", the loop edges of libs/loopclosing as "loop_edges"). Their owners write them before
-  /// a save and read and check them after a load; the map only carries them.
+  /// of libs/lines as "lines", the loop edges of libs/loopclosing as "loop_edges", the direct points of libs/direct
+  /// as "direct_points"). Their owners write them before a save and read and check them after a load; the map only
+  /// carries them.
   const std::map<std::string, std::string>& extensions() const { return extensions_; }
   /// Null when absent.
   const std::string* extension(const std::string& name) const;

@@ -17,7 +17,7 @@ class CSlamMapArchive : public mrpt::serialization::CSerializable {
   DEFINE_SERIALIZABLE(CSlamMapArchive, pslam::map)
  public:
   /// 1 adds the vocabulary fingerprint (Map::vocabulary) after the points; 2 adds the extensions (Map::extensions:
-  /// lines, loop edges) after it. Versions 0 and 1 are still read.
+  /// lines, loop edges, direct points) after it. Versions 0 and 1 are still read.
   static constexpr std::uint8_t kFormatVersion = 2;
   Map map;
   /// Why the last serializeFrom() failed (MRPT replaces the message of exceptions thrown inside it).
