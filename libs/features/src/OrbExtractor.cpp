@@ -375,8 +375,15 @@ void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keyp
       throw Error("OrbExtractor::extract: OpenCV ORB changed the keypoints of level " + std::to_string(l));
     levelDesc.copyTo(descriptors.rowRange(row, row + levelDesc.rows));
     row += levelDesc.rows;
+    const float sx = static_cast<float>(pyramid_[0].cols) / static_cast<float>(pyramid_[l].cols);
+    const float sy = static_cast<float>(pyramid_[0].rows) / static_cast<float>(pyramid_[l].rows);
     for (cv::KeyPoint kp : perLevel[l]) {
-      kp.pt *= scale_[l];
+      if (params_.exactLevelCoordinates && l > 0) {
+        kp.pt.x = (kp.pt.x + 0.5f) * sx - 0.5f;
+        kp.pt.y = (kp.pt.y + 0.5f) * sy - 0.5f;
+      } else {
+        kp.pt *= scale_[l];
+      }
       keypoints.push_back(kp);
     }
   }
