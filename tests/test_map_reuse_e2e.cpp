@@ -191,13 +191,15 @@ TEST(MapReuse, DirectPointsAreSavedWithTheMapAndLocalizeAnotherPath) {
   EXPECT_EQ(readBytes(mapA), readBytes(o.outDir / "map.slammap")) << "localization changed the map";
   std::ifstream in(o.outDir / "report.json");
   const nlohmann::json report = nlohmann::json::parse(in);
-  long factors = 0, inliers = 0;
+  long factors = 0, inliers = 0, active = 0;
   for (const auto& f : report["frames"]) {
     factors += f["direct_factors"].get<long>();
     inliers += f["direct_inliers"].get<long>();
+    active += f["direct_active"].get<long>();
   }
   EXPECT_GT(factors, 100L * static_cast<long>(s.framesLocalized)) << "the loaded direct points join the poses";
   EXPECT_GT(inliers, factors / 2);
+  EXPECT_GE(active, factors) << "the report counts the active points in view (factors are at most those)";
   eval::EvalOptions eo;
   eo.alignFromGt = groundTruthOf(pathA());
   eo.alignFromEst = a.outDir / "trajectory.txt";

@@ -236,13 +236,18 @@ std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>> DirectFrontE
   return factors;
 }
 
-tracking::DirectFrameCounts DirectFrontEnd::afterTracking(const tracking::Frame& frame, const map::Map& map,
-                                                          const std::vector<bool>& factorOutliers) {
+tracking::DirectFrameCounts DirectFrontEnd::viewCounts() const {
   tracking::DirectFrameCounts counts;
   counts.active = lastActive_;
   counts.inactive = lastInactive_;
   counts.referenceInView = lastReferenceInView_;
   counts.referenceActive = lastReferenceActive_;
+  return counts;
+}
+
+tracking::DirectFrameCounts DirectFrontEnd::afterTracking(const tracking::Frame& frame, const map::Map& map,
+                                                          const std::vector<bool>& factorOutliers) {
+  tracking::DirectFrameCounts counts = viewCounts();
   if (factorOutliers.size() == lastFactors_.size()) {
     counts.factors = static_cast<int>(lastFactors_.size());
     for (std::size_t k = 0; k < lastFactors_.size(); ++k) {

@@ -932,7 +932,8 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
     rep.direct = direct_->afterTracking(frame, map_, directOutliers_);
   } else if (direct_) {
     // Localization: the direct points stay as they were loaded (no measurements, counters or culling); the report
-    // still says what the pose used.
+    // still says what the pose used and which points it saw.
+    rep.direct = direct_->viewCounts();
     rep.direct.factors = directFactors_;
     rep.direct.inliers = directInliers_;
   }

@@ -158,6 +158,7 @@ class DirectFrontEnd : public tracking::DirectPointSource {
                                                                                  map::KeyFrameId reference) override;
   int coarsestLevel() const override { return params_.coarsestLevel; }
   int minInliers() const override { return params_.minTrackingInliers; }
+  tracking::DirectFrameCounts viewCounts() const override;
   tracking::DirectFrameCounts afterTracking(const tracking::Frame& frame, const map::Map& map,
                                             const std::vector<bool>& factorOutliers) override;
 

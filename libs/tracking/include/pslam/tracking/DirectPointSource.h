@@ -37,6 +37,9 @@ class DirectPointSource {
   virtual int coarsestLevel() const = 0;
   /// Minimum inlier factors with which the direct points alone let a pose optimization succeed.
   virtual int minInliers() const = 0;
+  /// The view counts of the last poseFactors() call (active, inactive, referenceInView, referenceActive; the other
+  /// fields 0), without changing any point: what a localization-only frame reports.
+  virtual DirectFrameCounts viewCounts() const = 0;
   /// The frame was tracked (final pose in frame.T_cam_world; `factorOutliers` of the last optimization, per
   /// factor of the last poseFactors() call): updates the models of the points the frame measured. Returns the
   /// frame's counts. Not called in localization-only mode.
