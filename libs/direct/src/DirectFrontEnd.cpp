@@ -273,9 +273,21 @@ tracking::DirectFrameCounts DirectFrontEnd::afterTracking(const tracking::Frame&
     const geometry::Matrix34d Pf =
         geometry::projectionMatrix(intrinsics_.K(), frame.T_cam_world.linear(), frame.T_cam_world.translation());
     const cv::Mat& level0 = framePyramid_->level(0);
+    // The frame's optical-flow pyramid once for all hosts, each host's (with its gradients) once while it is
+    // measured: calcOpticalFlowPyrLK on the images would build both per call, with the same result.
+    const cv::Size measureWin(params_.measureWindow, params_.measureWindow);
+    std::vector<cv::Mat> frameFlowPyramid;
+    int flowLevels = params_.measureLevels;
+    if (!byHost.empty())
+      flowLevels = std::min(flowLevels, cv::buildOpticalFlowPyramid(frameGrey_, frameFlowPyramid, measureWin,
+                                                                    params_.measureLevels, false));
+    for (auto& [h, host] : hosts_)
+      if (!byHost.count(h)) host.flowPyramid.clear();
     for (auto& [h, list] : byHost) {
       DirectHost& host = hosts_.at(h);
       if (host.grey.empty()) continue;
+      if (host.flowPyramid.empty())
+        cv::buildOpticalFlowPyramid(host.grey, host.flowPyramid, measureWin, params_.measureLevels, true);
       const map::KeyFrame& kf = map.keyFrame(h);
       std::vector<cv::Point2f> from, to;
       std::vector<Eigen::Vector2d> predicted;
@@ -288,8 +300,7 @@ tracking::DirectFrameCounts DirectFrontEnd::afterTracking(const tracking::Frame&
       }
       std::vector<uchar> status;
       std::vector<float> err;
-      cv::calcOpticalFlowPyrLK(host.grey, frameGrey_, from, to, status, err,
-                               cv::Size(params_.measureWindow, params_.measureWindow), params_.measureLevels,
+      cv::calcOpticalFlowPyrLK(host.flowPyramid, frameFlowPyramid, from, to, status, err, measureWin, flowLevels,
                                cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03),
                                cv::OPTFLOW_USE_INITIAL_FLOW);
       const geometry::Matrix34d Ph =
@@ -606,6 +617,7 @@ void DirectFrontEnd::prune(const map::Map& map) {
       it->second.grey.release();
       it->second.semantic.release();
       it->second.pyramid.reset();
+      it->second.flowPyramid.clear();
     }
   }
 }

@@ -1,5 +1,6 @@
 #include "pslam/features/DirectMatching.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -43,29 +44,51 @@ std::vector<DirectMatch> matchDirectPoints(const cv::Mat& image1, const cv::Mat&
   const cv::Size win(params.windowSize, params.windowSize);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, params.maxIterations, params.epsilon);
 
+  // Each image's pyramid (with the first image's and, for the backward pass, the second's gradients) is built
+  // once for both passes; calcOpticalFlowPyrLK would build both for each call. LK tracks every point on its own,
+  // so the results are those of two calls on the images.
+  std::vector<cv::Mat> pyramid1, pyramid2;
+  const int levels1 = cv::buildOpticalFlowPyramid(image1, pyramid1, win, params.pyramidLevels, true);
+  const int levels2 = cv::buildOpticalFlowPyramid(image2, pyramid2, win, params.pyramidLevels, true);
+  const int levels = std::min(levels1, levels2);
+
   std::vector<cv::Point2f> forward = guesses2.empty() ? points1 : guesses2;
-  std::vector<uchar> okF, okB;
+  std::vector<uchar> okF;
   std::vector<float> err;
-  cv::calcOpticalFlowPyrLK(image1, image2, points1, forward, okF, err, win, params.pyramidLevels, term,
+  cv::calcOpticalFlowPyrLK(pyramid1, pyramid2, points1, forward, okF, err, win, levels, term,
                            cv::OPTFLOW_USE_INITIAL_FLOW);
-  // Forward-backward check: tracking the result back must return to the start (rejects occlusions and
-  // drifting on edges, where LK is only constrained along the gradient).
-  std::vector<cv::Point2f> backward = points1;
-  cv::calcOpticalFlowPyrLK(image2, image1, forward, backward, okB, err, win, params.pyramidLevels, term,
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  // Only what the forward pass and the epipolar check keep is tracked back.
+  std::vector<std::size_t> candidates;
   for (size_t i = 0; i < points1.size(); ++i) {
     DirectMatch& m = out[i];
     m.position = forward[i];
-    if (!okF[i] || !okB[i]) continue;
-    m.forwardBackwardError = static_cast<float>(cv::norm(backward[i] - points1[i]));
-    bool valid = m.forwardBackwardError <= params.maxForwardBackward;
-    valid = valid && m.position.x >= 0 && m.position.y >= 0 && m.position.x <= image2.cols - 1 &&
-            m.position.y <= image2.rows - 1;
+    if (!okF[i]) continue;
+    bool candidate = m.position.x >= 0 && m.position.y >= 0 && m.position.x <= image2.cols - 1 &&
+                     m.position.y <= image2.rows - 1;
     if (F21) {
       m.epipolarDistance = static_cast<float>(epipolarDistance(*F21, points1[i], m.position));
-      valid = valid && m.epipolarDistance <= params.maxEpipolarDistance;
+      candidate = candidate && m.epipolarDistance <= params.maxEpipolarDistance;
     }
-    m.valid = valid;
+    if (candidate) candidates.push_back(i);
+  }
+  if (candidates.empty()) return out;
+  // Forward-backward check: tracking the result back must return to the start (rejects occlusions and
+  // drifting on edges, where LK is only constrained along the gradient).
+  std::vector<cv::Point2f> from2, backward;
+  from2.reserve(candidates.size());
+  backward.reserve(candidates.size());
+  for (std::size_t i : candidates) {
+    from2.push_back(forward[i]);
+    backward.push_back(points1[i]);
+  }
+  std::vector<uchar> okB;
+  cv::calcOpticalFlowPyrLK(pyramid2, pyramid1, from2, backward, okB, err, win, levels, term,
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (!okB[k]) continue;
+    DirectMatch& m = out[candidates[k]];
+    m.forwardBackwardError = static_cast<float>(cv::norm(backward[k] - points1[candidates[k]]));
+    m.valid = m.forwardBackwardError <= params.maxForwardBackward;
   }
   return out;
 }

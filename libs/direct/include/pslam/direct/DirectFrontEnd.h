@@ -135,6 +135,9 @@ struct DirectHost {
   cv::Mat grey;      ///< undistorted CV_8UC1 (empty once dropped)
   cv::Mat semantic;  ///< undistorted SEMANTIC (CV_8UC3) or empty
   std::shared_ptr<optimize::ImagePyramid> pyramid;  ///< built on demand from grey
+  /// Optical-flow pyramid of grey with its gradients for the per-frame measurements (measureWindow /
+  /// measureLevels), built on demand and kept only while the host is measured frame after frame.
+  std::vector<cv::Mat> flowPyramid;
   optimize::AffineBrightness affine;
   std::vector<DirectMapPoint> points;
 };

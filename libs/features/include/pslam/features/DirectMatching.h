@@ -21,7 +21,8 @@ struct DirectMatchParams {
 struct DirectMatch {
   bool valid = false;
   cv::Point2f position;             ///< tracked position in image 2
-  float forwardBackwardError = -1;  ///< |backward(forward(p1)) - p1|
+  float forwardBackwardError = -1;  ///< |backward(forward(p1)) - p1| (-1 when the forward pass or the epipolar
+                                    ///< check already rejected the point: it is not tracked back)
   float epipolarDistance = -1;      ///< distance of position to the epipolar line F21 p1 (-1 without F)
 };
 
