@@ -23,6 +23,12 @@ int main(int argc, char** argv) {
   exportCmd->add_option("--png", png, "top view from above: points and the keyframe trajectory");
   exportCmd->add_option("--width", ex.pngWidth, "PNG width in pixels")->capture_default_str();
   exportCmd->add_option("--height", ex.pngHeight, "PNG height in pixels")->capture_default_str();
+  std::string residualsMap;
+  bool residualsJson = false;
+  CLI::App* residualsCmd =
+      cli.add_subcommand("residuals", "reprojection residuals per pyramid level: mean offsets (bias) and RMS");
+  residualsCmd->add_option("map", residualsMap, "map file")->required();
+  residualsCmd->add_flag("--json", residualsJson, "print JSON instead of text");
   CLI11_PARSE(cli, argc, argv);
   try {
     if (*infoCmd) {
@@ -31,6 +37,12 @@ int main(int argc, char** argv) {
         std::cout << i.toJson().dump(2) << "\n";
       else
         std::cout << i.toText();
+    } else if (*residualsCmd) {
+      const pslam::apps::MapResiduals r = pslam::apps::mapResiduals(residualsMap);
+      if (residualsJson)
+        std::cout << r.toJson().dump(2) << "\n";
+      else
+        std::cout << r.toText();
     } else {
       ex.map = exportMap;
       ex.ply = ply;

@@ -171,3 +171,47 @@ TEST(SlamMapApp, BadInputsNameTheFileAndWriteNothing) {
   EXPECT_NE(errorOf([&] { apps::exportMap(o); }).find("input"), std::string::npos);
   EXPECT_NO_THROW(map::loadMap(o.map));  // untouched
 }
+
+TEST(SlamMapApp, ResidualsRecoverAnOffsetPerLevelAndAScaleAboutThePrincipalPoint) {
+  // The synthetic keypoints are the exact projections of their points: shifting those of level l by (0.1 l,
+  // -0.05 l) px must give exactly these means on level l; scaling level 7's about the principal point by 1 + e
+  // gives a radial mean of e times their mean distance from it and no radial mean elsewhere beyond the shifts'.
+  map::Map m = syntheticMap();
+  const apps::MapResiduals exact = apps::mapResiduals(m);
+  ASSERT_FALSE(exact.levels.empty());
+  EXPECT_LT(exact.all.rms, 1e-3);
+  const double e = 0.01;
+  double radiusSum = 0.0;
+  std::size_t level7 = 0;
+  for (const auto& [id, kf] : m.keyFrames()) {
+    map::KeyFrame& k = m.mutableKeyFrame(id);
+    for (std::size_t i = 0; i < k.keypoints.size(); ++i) {
+      if (k.mapPointIds[i] == map::kNoMapPoint) continue;
+      cv::KeyPoint& kp = k.keypoints[i];
+      if (kp.octave == 7) {
+        const cv::Point2f c(static_cast<float>(k.camera.cx), static_cast<float>(k.camera.cy));
+        radiusSum += cv::norm(kp.pt - c);
+        ++level7;
+        kp.pt = c + (kp.pt - c) * static_cast<float>(1.0 + e);
+      } else {
+        kp.pt.x += static_cast<float>(0.1 * kp.octave);
+        kp.pt.y -= static_cast<float>(0.05 * kp.octave);
+      }
+    }
+  }
+  ASSERT_GT(level7, 10u);
+  const apps::MapResiduals r = apps::mapResiduals(m);
+  std::size_t total = 0;
+  for (const apps::LevelResiduals& l : r.levels) {
+    total += l.count;
+    if (l.level == 7) {
+      EXPECT_NEAR(l.meanRadial, e * radiusSum / static_cast<double>(level7), 1e-3) << "level 7";
+      continue;
+    }
+    EXPECT_NEAR(l.meanX, 0.1 * l.level, 1e-4) << "level " << l.level;
+    EXPECT_NEAR(l.meanY, -0.05 * l.level, 1e-4) << "level " << l.level;
+    EXPECT_NEAR(l.rms, std::hypot(0.1, 0.05) * l.level, 1e-4) << "level " << l.level;
+  }
+  EXPECT_EQ(total, r.all.count);
+  EXPECT_EQ(r.toJson()["levels"].size(), r.levels.size());
+}

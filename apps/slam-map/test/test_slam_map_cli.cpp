@@ -83,6 +83,16 @@ TEST(SlamMapCli, InfoAndExport) {
   EXPECT_EQ(ex.exitCode, 0) << ex.err;
   EXPECT_TRUE(fs::is_regular_file(tmp.path / "m.ply"));
   EXPECT_TRUE(fs::is_regular_file(tmp.path / "top.png"));
+
+  // The synthetic keypoints are exact projections: every level's residuals are zero.
+  const CliRun res = runCli("residuals " + file.string(), tmp.path);
+  EXPECT_EQ(res.exitCode, 0) << res.err;
+  EXPECT_NE(res.out.find("level  observations"), std::string::npos) << res.out;
+  const CliRun resJson = runCli("residuals " + file.string() + " --json", tmp.path);
+  ASSERT_EQ(resJson.exitCode, 0) << resJson.err;
+  const nlohmann::json r = nlohmann::json::parse(resJson.out);
+  EXPECT_GT(r["all"]["count"].get<long>(), 0);
+  EXPECT_LT(r["all"]["rms_px"].get<double>(), 1e-3);
 }
 
 TEST(SlamMapCli, BadInputIsOneErrorLineAndExitCodeOne) {
@@ -90,6 +100,9 @@ TEST(SlamMapCli, BadInputIsOneErrorLineAndExitCodeOne) {
   const CliRun missing = runCli("info /nonexistent/x.slammap", tmp.path);
   EXPECT_EQ(missing.exitCode, 1);
   EXPECT_EQ(missing.err, "slam-map: error: /nonexistent/x.slammap: map file not found\n");
+  const CliRun residuals = runCli("residuals /nonexistent/x.slammap", tmp.path);
+  EXPECT_EQ(residuals.exitCode, 1);
+  EXPECT_EQ(residuals.err, "slam-map: error: /nonexistent/x.slammap: map file not found\n");
   const CliRun nothing = runCli("export /nonexistent/x.slammap", tmp.path);
   EXPECT_EQ(nothing.exitCode, 1);
   EXPECT_EQ(std::count(nothing.err.begin(), nothing.err.end(), '\n'), 1) << nothing.err;

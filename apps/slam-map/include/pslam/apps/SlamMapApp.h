@@ -4,6 +4,8 @@
 //           path length and, when the points carry the probabilistic keypoint model (§3.3), statistics of
 //           its inlier ratio phi (eq. 3.22) and of the depth updates
 //   export  an ASCII PLY of the good map points and the keyframe centres, and a PNG top view of both
+//   residuals  the reprojection residuals of the map per pyramid level: a feature-position or calibration
+//           bias shows as mean offsets away from zero (doc/features.md)
 // A top view needs "up": the map's frame is the first keyframe's camera frame, not a gravity frame, so up is
 // taken as the mean of the keyframes' camera -y axes (cameras held roughly level), or, when those disagree,
 // as the normal of the plane the keyframe centres span.
@@ -57,6 +59,32 @@ struct MapInfo {
   nlohmann::json toJson() const;
   std::string toText() const;
 };
+
+/// Reprojection residuals of the observations of one pyramid level (or of all): keypoint minus the projection of
+/// its point into the keyframe, in pixels (undistorted).
+struct LevelResiduals {
+  int level = -1;  ///< -1: all levels
+  std::size_t count = 0;
+  double meanX = 0, meanY = 0;  ///< mean offset
+  double meanRadial = 0;        ///< mean offset along the direction from the principal point to the keypoint
+  double rms = 0;               ///< root mean square of the residual norm
+  nlohmann::json toJson() const;
+};
+
+struct MapResiduals {
+  std::filesystem::path file;
+  std::vector<LevelResiduals> levels;  ///< the levels with observations, ascending
+  LevelResiduals all;
+  std::size_t behindCamera = 0;  ///< observations of points behind their keyframe (left out)
+  nlohmann::json toJson() const;
+  std::string toText() const;
+};
+
+/// The residuals of every observation of a good point. A map whose keypoints are unbiased has means near 0 on
+/// every level (doc/features.md: ORB-SLAM's level -> image mapping leaves offsets of 0.1-0.4 px).
+MapResiduals mapResiduals(const map::Map& map);
+/// Reads `file` (map::loadMap: errors name the file) first.
+MapResiduals mapResiduals(const std::filesystem::path& file);
 
 /// Reads `file` (map::loadMap: errors name the file) and summarizes it.
 MapInfo mapInfo(const std::filesystem::path& file);
