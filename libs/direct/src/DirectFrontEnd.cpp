@@ -9,6 +9,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/PixelCentres.h"
 #include "pslam/geometry/Epipolar.h"
 #include "pslam/geometry/Triangulation.h"
 #include "pslam/landmarks/MatchingAccuracy.h"
@@ -359,6 +360,7 @@ void DirectFrontEnd::addKeyFrame(map::KeyFrameId kf, const cv::Mat& grey, const 
   host.grey = undistort(grey, false);
   host.semantic = undistort(semantic, true);
   host.pyramid.reset();
+  host.flowPyramid.clear();
   host.affine = fromLastFrame ? frameAffine_ : optimize::AffineBrightness{};
   host.points.clear();
 }
@@ -435,7 +437,8 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
   for (std::size_t l = 0; l < selected.size(); ++l) {
     const double s = static_cast<double>(1 << l);
     for (const features::DirectPoint& d : selected[l]) {
-      const Eigen::Vector2d p((d.pixel.x + 0.5) * s - 0.5, (d.pixel.y + 0.5) * s - 0.5);
+      const Eigen::Vector2d p(toOriginalPixel(static_cast<double>(d.pixel.x), s),
+                              toOriginalPixel(static_cast<double>(d.pixel.y), s));
       if (p.x() < border || p.y() < border || p.x() > host.grey.cols - 1 - border || p.y() > host.grey.rows - 1 - border)
         continue;
       pixels.push_back(p);

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/PixelCentres.h"
 
 namespace pslam::features {
 namespace {
@@ -379,8 +380,8 @@ void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keyp
     const float sy = static_cast<float>(pyramid_[0].rows) / static_cast<float>(pyramid_[l].rows);
     for (cv::KeyPoint kp : perLevel[l]) {
       if (params_.exactLevelCoordinates && l > 0) {
-        kp.pt.x = (kp.pt.x + 0.5f) * sx - 0.5f;
-        kp.pt.y = (kp.pt.y + 0.5f) * sy - 0.5f;
+        kp.pt.x = toOriginalPixel(kp.pt.x, sx);
+        kp.pt.y = toOriginalPixel(kp.pt.y, sy);
       } else {
         kp.pt *= scale_[l];
       }

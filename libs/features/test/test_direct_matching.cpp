@@ -1,10 +1,12 @@
 // matchDirectPoints: sub-pixel LK tracking against a known shift, epipolar and forward-backward rejection,
-// epipolar distance against geometry; bad input.
+// epipolar distance against geometry; the same matches as two plain optical-flow calls; bad input.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 
 #include "SyntheticImages.h"
 #include "pslam/core/Error.h"
@@ -110,4 +112,53 @@ TEST(DirectMatching, RejectsBadInput) {
   bad.windowSize = 4;
   EXPECT_THROW(matchDirectPoints(a, a, {{1, 1}}, {}, nullptr, bad), pslam::Error);
   EXPECT_TRUE(matchDirectPoints(a, a, {}).empty());
+}
+
+TEST(DirectMatching, SameMatchesAsTwoPlainOpticalFlowCalls) {
+  // matchDirectPoints builds each pyramid once and tracks back only what the forward pass and the epipolar check
+  // keep. LK tracks every point on its own, so this must be exactly what the plain form gives: both images'
+  // pyramids built by each calcOpticalFlowPyrLK call, every point tracked back. The scene makes every check fail
+  // somewhere: an occluder (forward-backward), points leaving the image (bounds), a tolerance at the 2.1 px
+  // vertical shift (epipolar).
+  Scene s = shiftedScene();
+  s.img2(cv::Rect(100, 80, 120, 100)).setTo(128);
+  for (float x : {30.f, 150.f, 300.f}) s.pts.emplace_back(x, 1.0f);  // moved to y = -1.1: out of the image
+  const cv::Matx33d F(0, 0, 0, 0, 0, -1, 0, 1, 0);
+  DirectMatchParams params;
+  params.maxEpipolarDistance = 2.1f;
+  const std::vector<DirectMatch> m = matchDirectPoints(s.img1, s.img2, s.pts, {}, &F, params);
+
+  const cv::Size win(params.windowSize, params.windowSize);
+  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, params.maxIterations, params.epsilon);
+  std::vector<cv::Point2f> forward = s.pts, backward = s.pts;
+  std::vector<uchar> okF, okB;
+  std::vector<float> err;
+  cv::calcOpticalFlowPyrLK(s.img1, s.img2, s.pts, forward, okF, err, win, params.pyramidLevels, term,
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(s.img2, s.img1, forward, backward, okB, err, win, params.pyramidLevels, term,
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  ASSERT_EQ(m.size(), s.pts.size());
+  std::size_t valid = 0, failedEpipolar = 0, failedBackward = 0, outside = 0;
+  for (std::size_t i = 0; i < s.pts.size(); ++i) {
+    SCOPED_TRACE("point " + std::to_string(i));
+    const cv::Point2f q = forward[i];
+    const bool inside = q.x >= 0 && q.y >= 0 && q.x <= s.img2.cols - 1 && q.y <= s.img2.rows - 1;
+    const bool onLine = epipolarDistance(F, s.pts[i], q) <= params.maxEpipolarDistance;
+    const bool consistent = cv::norm(backward[i] - s.pts[i]) <= params.maxForwardBackward;
+    const bool expected = okF[i] && okB[i] && inside && onLine && consistent;
+    EXPECT_EQ(m[i].valid, expected);
+    EXPECT_EQ(m[i].position, q);
+    if (expected) EXPECT_EQ(m[i].forwardBackwardError, static_cast<float>(cv::norm(backward[i] - s.pts[i])));
+    valid += expected;
+    failedEpipolar += okF[i] && inside && !onLine;
+    failedBackward += okF[i] && inside && onLine && (!okB[i] || !consistent);
+    outside += !okF[i] || !inside;
+  }
+  // Every branch taken (counts of this seeded scene: the occluder's points mostly leave the epipolar band first).
+  EXPECT_GT(valid, 20u);
+  EXPECT_GT(failedEpipolar, 20u);
+  EXPECT_GE(failedBackward, 2u);
+  EXPECT_GE(outside, 3u);
+  std::printf("valid %zu, epipolar %zu, backward %zu, outside %zu of %zu\n", valid, failedEpipolar, failedBackward,
+              outside, s.pts.size());
 }

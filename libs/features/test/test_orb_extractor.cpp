@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <random>
 #include <set>
@@ -445,6 +446,7 @@ TEST(OrbExtractor, LevelZeroKeypointsSitOnTheCornersTheyDetect) {
   // known vertices; the level-0 keypoints near a vertex must not be offset from it on average (FAST's integer
   // pixel spreads them by up to half a pixel in every direction). The biased level mapping of ORB-SLAM could only
   // be right if this offset were about +0.5 px (ExactLevelCoordinatesAreUnbiasedAcrossLevels, doc/features.md).
+  // One level: the premise of the level mapping, not the mapping itself.
   const int S = 8, W = 640, H = 480;
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> ux(40, W - 40), uy(40, H - 40), angle(0, 2 * CV_PI), radius(8, 30);
@@ -481,9 +483,15 @@ TEST(OrbExtractor, LevelZeroKeypointsSitOnTheCornersTheyDetect) {
     cv::Point2d nearest;
     for (const cv::Point2d& v : vertices) {
       const double d = cv::norm(cv::Point2d(kp.pt) - v);
-      if (d < best) best = d, nearest = v;
+      if (d < best) {
+        best = d;
+        nearest = v;
+      }
     }
-    if (best < 1.5) sum += cv::Point2d(kp.pt) - nearest, ++n;
+    if (best < 1.5) {
+      sum += cv::Point2d(kp.pt) - nearest;
+      ++n;
+    }
   }
   ASSERT_GE(n, 200) << "too few keypoints on vertices";
   const cv::Point2d mean = sum / n;

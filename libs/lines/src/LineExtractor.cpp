@@ -8,6 +8,7 @@
 #include <opencv2/line_descriptor.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/PixelCentres.h"
 
 namespace pslam::lines {
 
@@ -38,8 +39,9 @@ LineFeatures LineExtractor::extract(const cv::Mat& grey) const {
   std::vector<cv::Vec4f> raw;
   cv::createLineSegmentDetector(cv::LSD_REFINE_NONE)->detect(level, raw);
   const double sx = static_cast<double>(grey.cols) / level.cols, sy = static_cast<double>(grey.rows) / level.rows;
-  // Pixel centres: full = (level + 0.5) * scale - 0.5.
-  auto toFull = [&](float x, float y) { return Eigen::Vector2d((x + 0.5) * sx - 0.5, (y + 0.5) * sy - 0.5); };
+  auto toFull = [&](float x, float y) {
+    return Eigen::Vector2d(toOriginalPixel(static_cast<double>(x), sx), toOriginalPixel(static_cast<double>(y), sy));
+  };
   std::vector<LineSegment> distorted, atLevel;
   for (const cv::Vec4f& l : raw) {
     LineSegment seg{toFull(l[0], l[1]), toFull(l[2], l[3])};

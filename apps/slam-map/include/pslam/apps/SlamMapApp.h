@@ -81,7 +81,7 @@ struct MapResiduals {
 };
 
 /// The residuals of every observation of a good point. A map whose keypoints are unbiased has means near 0 on
-/// every level (doc/features.md: ORB-SLAM's level -> image mapping leaves offsets of 0.1-0.4 px).
+/// every level (doc/features.md: ORB-SLAM's level -> image mapping leaves offsets of up to 0.4 px).
 MapResiduals mapResiduals(const map::Map& map);
 /// Reads `file` (map::loadMap: errors name the file) first.
 MapResiduals mapResiduals(const std::filesystem::path& file);

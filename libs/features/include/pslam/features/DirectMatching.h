@@ -21,9 +21,12 @@ struct DirectMatchParams {
 struct DirectMatch {
   bool valid = false;
   cv::Point2f position;             ///< tracked position in image 2
-  float forwardBackwardError = -1;  ///< |backward(forward(p1)) - p1| (-1 when the forward pass or the epipolar
-                                    ///< check already rejected the point: it is not tracked back)
-  float epipolarDistance = -1;      ///< distance of position to the epipolar line F21 p1 (-1 without F)
+  /// |backward(forward(p1)) - p1|; -1 when the point was not tracked back (the forward pass failed, or it left
+  /// the image or the epipolar band) or the backward pass failed.
+  float forwardBackwardError = -1;
+  /// distance of position to the epipolar line F21 p1, for every point the forward pass kept (-1 without F or
+  /// when the forward pass failed).
+  float epipolarDistance = -1;
 };
 
 /// Tracks `points1` of grey image 1 into grey image 2 (both CV_8UC1, same size), starting from `guesses2`
