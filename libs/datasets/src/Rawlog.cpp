@@ -264,6 +264,7 @@ struct RawlogReader::Impl {
   mrpt::serialization::CSerializable::Ptr pending;  // the next object, already read (look-ahead)
   std::size_t frameIndex = 0;
   std::optional<cv::Size> size;
+  RawlogChannels channels;
 
   /// `framesBefore`: CAMERA observations read so far (for messages).
   mrpt::serialization::CSerializable::Ptr readObject(std::size_t framesBefore) {
@@ -273,9 +274,10 @@ struct RawlogReader::Impl {
   std::size_t objectIndex() const { return objects->objectsRead(); }
 };
 
-RawlogReader::RawlogReader(fs::path rawlogPath) : impl_(std::make_unique<Impl>()) {
+RawlogReader::RawlogReader(fs::path rawlogPath, RawlogChannels channels) : impl_(std::make_unique<Impl>()) {
   auto& d = *impl_;
   d.path = std::move(rawlogPath);
+  d.channels = channels;
   d.objects = openRawlog(d.path);
   d.imagesDir = RawlogWriter::imagesDirFor(d.path);
 }
@@ -354,6 +356,7 @@ bool RawlogReader::readFrame(Frame& f) {
       auto depth = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs);
       if (!depth || !depth->hasRangeImage) throw Error(ctx + ": DEPTH observation has no range image");
       if (!depth->range_is_depth) throw Error(ctx + ": DEPTH must hold depth (range_is_depth=true)");
+      if (!d.channels.depth) continue;
       depth->load();
       const auto& R = depth->rangeImage;
       f.depth.create(static_cast<int>(R.rows()), static_cast<int>(R.cols()), CV_16UC1);
@@ -365,8 +368,10 @@ bool RawlogReader::readFrame(Frame& f) {
     } else if (obs->sensorLabel == kSemanticLabel || obs->sensorLabel == kNormalsLabel) {
       auto img = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
       if (!img) throw Error(ctx + ": " + obs->sensorLabel + " observation is not a CObservationImage");
+      const bool semantic = obs->sensorLabel == kSemanticLabel;
+      if (!(semantic ? d.channels.semantic : d.channels.normals)) continue;
       cv::Mat m = loadImage(img->image, d.imagesDir, ctx + " " + obs->sensorLabel);
-      (obs->sensorLabel == kSemanticLabel ? f.semantic : f.normals) = m;
+      (semantic ? f.semantic : f.normals) = m;
     }
     // Other labels (IMU, GPS, ...) are ignored by this contract.
   }

@@ -350,3 +350,45 @@ TEST(PrefetchingRawlogReader, StopsWhileFramesAreReadAhead) {
   EXPECT_THROW(PrefetchingRawlogReader(d / "missing.rawlog"), Error);
   EXPECT_THROW(PrefetchingRawlogReader(d / "seq.rawlog", 0), Error);
 }
+
+TEST(Rawlog, ChannelsLeftOutAreNotDecoded) {
+  // A reader told to leave channels out gives the same CAMERA frames with those channels empty, and does not read
+  // their files: a missing NORMALS image is an error only for a reader that decodes NORMALS.
+  const fs::path d = tempDir("channels");
+  {
+    RawlogWriter w(d / "seq.rawlog");
+    for (int i = 0; i < 3; ++i) w.write(makeFrame(i, false, true));
+    w.commit();
+  }
+  RawlogChannels none;
+  none.depth = none.semantic = none.normals = false;
+  RawlogChannels semanticOnly = none;
+  semanticOnly.semantic = true;
+  RawlogReader all(d / "seq.rawlog"), without(d / "seq.rawlog", none), semantic(d / "seq.rawlog", semanticOnly);
+  Frame a, b, c;
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(all.next(a));
+    ASSERT_TRUE(without.next(b));
+    ASSERT_TRUE(semantic.next(c));
+    EXPECT_EQ(b.index, a.index);
+    EXPECT_EQ(b.timestamp, a.timestamp);
+    EXPECT_TRUE(equalMats(b.image, a.image));
+    EXPECT_TRUE(a.hasDepth() && !a.semantic.empty() && !a.normals.empty());
+    EXPECT_TRUE(b.depth.empty() && b.semantic.empty() && b.normals.empty());
+    EXPECT_TRUE(c.depth.empty() && c.normals.empty());
+    EXPECT_TRUE(equalMats(c.semantic, a.semantic));
+  }
+  EXPECT_FALSE(without.next(b));
+
+  std::size_t removed = 0;
+  for (const auto& e : fs::directory_iterator(d / "seq_Images"))
+    if (e.path().filename().string().rfind("NORMALS", 0) == 0) removed += fs::remove(e.path()) ? 1 : 0;
+  ASSERT_EQ(removed, 3u);
+  RawlogReader skipping(d / "seq.rawlog", none);
+  EXPECT_TRUE(skipping.next(b));
+  RawlogReader decoding(d / "seq.rawlog");
+  EXPECT_THROW(decoding.next(a), pslam::Error);
+  PrefetchingRawlogReader prefetching(d / "seq.rawlog", 2, none);
+  for (int i = 0; i < 3; ++i) EXPECT_TRUE(prefetching.next(b));
+  EXPECT_FALSE(prefetching.next(b));
+}

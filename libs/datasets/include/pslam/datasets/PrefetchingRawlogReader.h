@@ -18,8 +18,9 @@ namespace pslam::datasets {
 class PrefetchingRawlogReader {
  public:
   /// Opens the rawlog (errors as RawlogReader's constructor) and starts reading up to `capacity` (>= 1) frames
-  /// ahead.
-  explicit PrefetchingRawlogReader(std::filesystem::path rawlogPath, std::size_t capacity = 3);
+  /// ahead, decoding `channels` besides CAMERA.
+  explicit PrefetchingRawlogReader(std::filesystem::path rawlogPath, std::size_t capacity = 3,
+                                   RawlogChannels channels = {});
   /// Stops the reading thread (stop()).
   ~PrefetchingRawlogReader();
   PrefetchingRawlogReader(const PrefetchingRawlogReader&) = delete;

@@ -89,13 +89,22 @@ class RawlogWriter {
   std::size_t frames_ = 0;
 };
 
+/// The channels a reader decodes besides CAMERA. A channel left out is still checked for its observation kind
+/// but not decoded (its image file is not read): the Frame has it empty. A run that does not use a channel saves
+/// its decoding (PNG for SEMANTIC and NORMALS, the range image for DEPTH).
+struct RawlogChannels {
+  bool depth = true;
+  bool semantic = true;
+  bool normals = true;
+};
+
 /// Streams frames from a rawlog that follows the contract. Images are loaded one frame at a time. The gzip
 /// stream is verified to its end (pslam::GzipInputStream): corrupt or cut data is an error naming the file and
 /// the frame, never the end of the rawlog.
 class RawlogReader {
  public:
   /// Throws pslam::Error if the file is missing or cannot be opened.
-  explicit RawlogReader(std::filesystem::path rawlogPath);
+  explicit RawlogReader(std::filesystem::path rawlogPath, RawlogChannels channels = {});
   ~RawlogReader();
   RawlogReader(const RawlogReader&) = delete;
   RawlogReader& operator=(const RawlogReader&) = delete;
