@@ -423,6 +423,13 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
   const map::KeyFrame& pkf = map.keyFrame(report.partner);
 
   // Multi-resolution selection (Algorithm 3 on halved images), points in level-0 pixels.
+  auto step = Clock::now();
+  auto msOfStep = [&step] {
+    const auto now = Clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - step).count();
+    step = now;
+    return ms;
+  };
   std::vector<cv::Mat> levels{host.grey};
   for (int l = 1; l < params_.selectionLevels; ++l) {
     cv::Mat half;
@@ -445,6 +452,7 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
     }
   }
   report.selected = static_cast<int>(pixels.size());
+  report.selectionMs = msOfStep();
   if (pixels.empty()) return report;
 
   std::vector<double> cellDepth(cellDepths.size(), globalDepth);
@@ -474,6 +482,7 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
   mp.maxForwardBackward = static_cast<float>(params_.maxForwardBackward);
   const std::vector<features::DirectMatch> matches =
       features::matchDirectPoints(host.grey, partner.grey, from, guesses, &F21, mp);
+  report.flowMs = msOfStep();
 
   const geometry::Matrix34d P1 =
       geometry::projectionMatrix(intrinsics_.K(), kf.T_cam_world.linear(), kf.T_cam_world.translation());
@@ -522,6 +531,7 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
     host.points.push_back(std::move(p));
     ++report.created;
   }
+  report.pointsMs = msOfStep();
   report.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   return report;
 }

@@ -245,6 +245,11 @@ struct System::Impl {
         d = directFrontEnd->createPoints(map, kf);
         directFrontEnd->prune(map);
         mappingTimings.add("direct_creation", d.ms);
+        if (d.partner != map::kNoKeyFrame) {  // its steps (doc/experiments.md, cost of the direct points)
+          mappingTimings.add("direct_selection", d.selectionMs);
+          mappingTimings.add("direct_flow", d.flowMs);
+          mappingTimings.add("direct_new_points", d.pointsMs);
+        }
       }
       mappingLog.push_back({{"generation", generation},
                             {"direct_selected", d.selected},

@@ -146,7 +146,10 @@ struct DirectHost {
 struct DirectCreationReport {
   int selected = 0, tracked = 0, created = 0;
   map::KeyFrameId partner = map::kNoKeyFrame;
-  double ms = 0.0;
+  double ms = 0.0;  ///< the whole call; its steps (0 when the call ended before them):
+  double selectionMs = 0.0;  ///< the multi-resolution selection
+  double flowMs = 0.0;       ///< the optical flow into the partner (both passes, epipolar check)
+  double pointsMs = 0.0;     ///< triangulation, host intensities and the keypoint models of the new points
 };
 
 class DirectFrontEnd : public tracking::DirectPointSource {
