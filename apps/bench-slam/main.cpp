@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     options.seed = seed;
     options.threaded = false;  // per-frame CPU time includes the frame's local mapping
     system::System slam(system::loadSlamParams(config, overrides), options);
-    datasets::RawlogReader reader(rawlog);
+    datasets::RawlogReader reader(rawlog, system::System::channelsUsed(slam.params()));
     StageTimings perFrame;
     datasets::Frame f;
     std::size_t n = 0;
@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
       } catch (const Error& e) {
         throw Error(rawlog + ": " + e.what());
       }
-      perFrame.add("frame_wall", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      perFrame.add("frame_wall", msSince(t0));
       perFrame.add("frame_cpu", (system::processCpuSeconds() - cpu0) * 1e3);
       ++n;
     }

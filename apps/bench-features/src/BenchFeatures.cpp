@@ -12,6 +12,7 @@
 
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/features/DirectPointSelector.h"
 
 namespace pslam::features {
@@ -131,7 +132,7 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
         const double cpu1 = processCpuMs();
         cvOrb->detectAndCompute(img, cv::noArray(), cvKps, cvDesc);
         const double cpuCv = processCpuMs() - cpu1;
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        const double ms = msSince(start);
         if (r == 0) result.spreadOpenCv.push_back(gridSpread(cvKps, img.size()));
         if (r > 0) {
           result.timings.add("opencv_orb", ms);
@@ -144,7 +145,7 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
         const double cpu = processCpuMs();
         const size_t n = direct.select(img).size();
         const double cpuMs = processCpuMs() - cpu;
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        const double ms = msSince(start);
         if (r > 0) {
           result.timings.add("direct_points", ms);
           result.timings.add("direct_points_cpu", cpuMs);

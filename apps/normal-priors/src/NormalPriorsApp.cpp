@@ -10,6 +10,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/core/Params.h"
 #include "pslam/core/Progress.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/priors/NormalSource.h"
 
@@ -64,7 +65,7 @@ NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
   while (reader.next(frame)) {
     const auto t0 = std::chrono::steady_clock::now();
     const NormalMap nm = source->compute(frame);
-    totalMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    totalMs += msSince(t0);
     frame.normals = encodeNormalMap(nm.normals, o.planarOnly ? nm.planarMask : cv::Mat());
     cv::Mat stored;
     cv::inRange(frame.normals, cv::Scalar(0, 0, 0), cv::Scalar(0, 0, 0), stored);  // the "no normal" pixels

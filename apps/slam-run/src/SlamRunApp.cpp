@@ -209,14 +209,9 @@ SlamRunSummary SlamRunApp::run() {
     slam->setMap(std::move(*loaded), options_.mapIn.string());
     loaded.reset();
   }
-  // Frames are read and decoded a few ahead, in a thread of their own, while the current one is tracked. Only the
-  // channels the run uses are decoded: SEMANTIC for the point model's semantic prior (the System drops it
-  // otherwise), NORMALS for the Manhattan path; DEPTH never (slam-eval reads it for the depth ratio).
-  datasets::RawlogChannels channels;
-  channels.depth = false;
-  channels.semantic = params.pointModel.semantic;
-  channels.normals = params.manhattan.enabled;
-  datasets::PrefetchingRawlogReader reader(options_.rawlog, 3, channels);
+  // Frames are read and decoded a few ahead, in a thread of their own, while the current one is tracked; only the
+  // channels the System uses are decoded (slam-eval reads DEPTH itself for the depth ratio).
+  datasets::PrefetchingRawlogReader reader(options_.rawlog, 3, system::System::channelsUsed(params));
 
   const std::size_t lastIndex = options_.last < 0 ? total - 1 : std::min<std::size_t>(options_.last, total - 1);
   const std::size_t toProcess = options_.first <= lastIndex ? lastIndex - options_.first + 1 : 0;

@@ -9,6 +9,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/core/PixelCentres.h"
 #include "pslam/geometry/Epipolar.h"
 #include "pslam/geometry/Triangulation.h"
@@ -424,12 +425,6 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
 
   // Multi-resolution selection (Algorithm 3 on halved images), points in level-0 pixels.
   auto step = Clock::now();
-  auto msOfStep = [&step] {
-    const auto now = Clock::now();
-    const double ms = std::chrono::duration<double, std::milli>(now - step).count();
-    step = now;
-    return ms;
-  };
   std::vector<cv::Mat> levels{host.grey};
   for (int l = 1; l < params_.selectionLevels; ++l) {
     cv::Mat half;
@@ -452,7 +447,8 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
     }
   }
   report.selected = static_cast<int>(pixels.size());
-  report.selectionMs = msOfStep();
+  report.selectionMs = msSince(step);
+  step = Clock::now();
   if (pixels.empty()) return report;
 
   std::vector<double> cellDepth(cellDepths.size(), globalDepth);
@@ -482,7 +478,8 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
   mp.maxForwardBackward = static_cast<float>(params_.maxForwardBackward);
   const std::vector<features::DirectMatch> matches =
       features::matchDirectPoints(host.grey, partner.grey, from, guesses, &F21, mp);
-  report.flowMs = msOfStep();
+  report.flowMs = msSince(step);
+  step = Clock::now();
 
   const geometry::Matrix34d P1 =
       geometry::projectionMatrix(intrinsics_.K(), kf.T_cam_world.linear(), kf.T_cam_world.translation());
@@ -531,8 +528,8 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
     host.points.push_back(std::move(p));
     ++report.created;
   }
-  report.pointsMs = msOfStep();
-  report.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  report.pointsMs = msSince(step);
+  report.ms = msSince(t0);
   return report;
 }
 

@@ -9,15 +9,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/core/PixelCentres.h"
 
 namespace pslam::features {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 double processCpuMs() {
   timespec ts{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);

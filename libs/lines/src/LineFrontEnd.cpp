@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/tracking/Frame.h"
 
 namespace pslam::lines {
@@ -13,7 +14,6 @@ PSLAM_DEFINE_PARAMS(LinesParams)
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 /// Indices 0..n-1 thinned to at most `cap`, evenly (deterministic).
 std::vector<std::size_t> evenSubset(std::size_t n, std::size_t cap) {

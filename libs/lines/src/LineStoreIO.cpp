@@ -6,8 +6,6 @@
 //   u64 lines, each: u64 id | 6 f64 endpoints | u8 fixed | u64 descriptor bytes | bytes | u64 observations,
 //                    each u64 keyframe | i32 segment | u64 createdAt | u32 visible | u32 found | u8 bad
 // restore() checks every count, value and cross-reference before it replaces the store.
-#include <cmath>
-#include <cstring>
 #include <set>
 
 #include "pslam/core/ByteCodec.h"

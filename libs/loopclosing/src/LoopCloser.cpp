@@ -6,6 +6,7 @@
 
 #include "pslam/core/ByteCodec.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/features/Matching.h"
 #include "pslam/geometry/Sim3Solver.h"
 #include "pslam/optimize/MapAdapter.h"
@@ -388,7 +389,7 @@ void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isomet
     const optimize::BAResult result = optimize::globalBundleAdjustment(problem, globalBaParams());
     optimize::applyResult(map_, problem, result, false);
     report.globalBa = globalBaSummary(result, problem.observations.size());
-    report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    report.globalBaMs = msSince(t0);
     moved(report, posesBeforeCorrection);
     return;
   }
@@ -397,7 +398,7 @@ void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isomet
   moved(report, posesBeforeCorrection);
   startGlobalBundleAdjustment(report.keyFrame);
   report.globalBaAsynchronous = true;
-  report.globalBaMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  report.globalBaMs = msSince(t0);
 }
 
 nlohmann::json LoopCloser::globalBaSummary(const optimize::BAResult& result, std::size_t observations) {
@@ -537,7 +538,7 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
     ++loopsClosed_;
     break;
   }
-  report.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  report.ms = msSince(t0);
   return report;
 }
 

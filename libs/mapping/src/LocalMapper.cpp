@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/features/FeatureGrid.h"
 #include "pslam/features/Matching.h"
 #include "pslam/geometry/Epipolar.h"
@@ -32,9 +33,6 @@ using map::MapPointId;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 /// Median z of the keyframe's points in its own camera (ORB-SLAM ComputeSceneMedianDepth(2)); -1 if none.
 double sceneMedianDepth(const map::Map& map, const KeyFrame& kf) {

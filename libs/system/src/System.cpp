@@ -519,7 +519,7 @@ TrackResult System::track(const datasets::Frame& input) {
       ScopedStage st(s.trackingTimings, "extraction");
       // [PointModel] semantic = false: the SEMANTIC channel is not used anywhere (point model, initializer).
       datasets::Frame withoutSemantic;
-      const bool dropSemantic = !s.params.pointModel.semantic && input.hasSemantic();
+      const bool dropSemantic = !channelsUsed(s.params).semantic && input.hasSemantic();
       if (dropSemantic) {
         withoutSemantic = input;
         withoutSemantic.semantic = cv::Mat();
@@ -875,6 +875,14 @@ nlohmann::json System::summary() const {
           {"manhattan_tracked", c.manhattanTracked},
           {"fallback_tracked", c.fallbackTracked},
           {"lines", lineCount}};
+}
+
+datasets::RawlogChannels System::channelsUsed(const SlamParams& params) {
+  datasets::RawlogChannels c;
+  c.depth = false;
+  c.semantic = params.pointModel.semantic;
+  c.normals = params.manhattan.enabled;  // Impl builds the Manhattan tracker exactly then
+  return c;
 }
 
 nlohmann::json System::report() const {

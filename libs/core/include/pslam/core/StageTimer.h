@@ -21,6 +21,11 @@ class StageTimings {
   std::map<std::string, std::vector<double>> samples_;
 };
 
+/// Milliseconds of wall-clock time since `start`.
+inline double msSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
 /// Percentile (0..100) by linear interpolation between order statistics; NaN for an empty set.
 double percentile(std::vector<double> values, double p);
 
@@ -29,10 +34,7 @@ class ScopedStage {
  public:
   ScopedStage(StageTimings& timings, std::string stage)
       : timings_(timings), stage_(std::move(stage)), start_(std::chrono::steady_clock::now()) {}
-  ~ScopedStage() {
-    timings_.add(stage_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
-                             .count());
-  }
+  ~ScopedStage() { timings_.add(stage_, msSince(start_)); }
 
  private:
   StageTimings& timings_;

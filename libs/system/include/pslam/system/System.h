@@ -64,6 +64,11 @@ class System {
   System(const System&) = delete;
   System& operator=(const System&) = delete;
 
+  /// The rawlog channels a System with `params` uses besides CAMERA, so that a reader decodes no more
+  /// (datasets::RawlogChannels): SEMANTIC for the point model's semantic prior ([PointModel] semantic), NORMALS for
+  /// the Manhattan path ([Manhattan] enabled), DEPTH never. track() ignores the others.
+  static datasets::RawlogChannels channelsUsed(const SlamParams& params);
+
   /// Tracks one rawlog frame (all its channels: CAMERA, optional DEPTH, SEMANTIC, NORMALS) and, in sequential
   /// mode, maps the keyframes it created. Throws pslam::Error naming the frame for an empty image, missing or
   /// invalid intrinsics, or an image size other than the camera's.
