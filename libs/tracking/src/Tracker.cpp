@@ -81,6 +81,11 @@ const PoseSolver& Tracker::solverFor(const Frame& frame) const {
   return frame.rotationPrior && !softRotationPrior(frame) && manhattanSolver_ ? *manhattanSolver_ : *solver_;
 }
 
+int Tracker::minPoseInliersFor(const Frame& frame) const {
+  return frame.rotationPrior && !softRotationPrior(frame) && manhattanSolver_ ? manhattanParams_.minPoseInliers
+                                                                              : params_.minPoseInliers;
+}
+
 void Tracker::setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> policy) {
   // ORB-SLAM*'s policy (every good point) is the same as none: skip the per-point call.
   policy_ = policy && !policy->usesEveryGoodPoint() ? std::move(policy) : nullptr;
@@ -340,7 +345,7 @@ bool Tracker::trackWithMotionModel(Frame& frame) {
   const int n = searchLastFrame(frame);
   // With direct points the photometric alignment can carry a frame whose keypoint matches are too few (§3.4.2).
   if (n < params_.minMotionMatches && !direct_) return false;
-  return poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+  return poseSupported(optimizeFramePose(frame), minPoseInliersFor(frame));
 }
 
 std::optional<Eigen::Matrix3d> Tracker::manhattanRotation(const Frame& frame, ManhattanFrameReport& report) const {
@@ -422,7 +427,7 @@ bool Tracker::trackWithManhattanRotation(Frame& frame, const Eigen::Matrix3d& R_
   const int n = searchLastFrame(frame, static_cast<float>(manhattanParams_.searchRadiusFactor));
   // With the rotation fixed, the 3-DoF translation needs fewer matches than 6-DoF tracking's minMotionMatches.
   const int enough = std::min(params_.minMotionMatches, manhattanParams_.minInliers);
-  bool found = (n >= enough || direct_ || lines_) && poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+  bool found = (n >= enough || direct_ || lines_) && poseSupported(optimizeFramePose(frame), minPoseInliersFor(frame));
   if (!found) found = trackReferenceKeyFrame(frame);
   if (!found) {
     report.reason = "too few matches with the Manhattan rotation (motion model " + std::to_string(n) + ")";
@@ -495,7 +500,7 @@ bool Tracker::trackReferenceKeyFrame(Frame& frame) {
       frame.mapPointIds[static_cast<std::size_t>(m.i2)] = kf.mapPointIds[static_cast<std::size_t>(m.i1)];
     if (static_cast<int>(matches.size()) < params_.minReferenceMatches && !direct_) return false;
     frame.T_cam_world = last_.hasPose ? last_.T_cam_world : kf.T_cam_world;
-    return poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+    return poseSupported(optimizeFramePose(frame), minPoseInliersFor(frame));
   }
   // Without a vocabulary: descriptor matching of the keyframe's map points against all frame keypoints (same
   // TH_LOW and ratio as SearchByBoW, exhaustive instead of vocabulary-node restricted).
@@ -515,7 +520,7 @@ bool Tracker::trackReferenceKeyFrame(Frame& frame) {
   for (const auto& m : matches) frame.mapPointIds[m.i2] = kf.mapPointIds[rows[m.i1]];
   if (static_cast<int>(matches.size()) < params_.minReferenceMatches && !direct_) return false;
   frame.T_cam_world = last_.hasPose ? last_.T_cam_world : kf.T_cam_world;
-  return poseSupported(optimizeFramePose(frame), params_.minPoseInliers);
+  return poseSupported(optimizeFramePose(frame), minPoseInliersFor(frame));
 }
 
 void Tracker::updateLocalKeyFrames(const Frame& frame) {

@@ -94,6 +94,10 @@ struct ManhattanPathParams {
   /// Local-map inliers a Manhattan pose needs (the rotation is known: far fewer than 6-DoF tracking's
   /// minLocalMapInliers carry the 3-DoF translation, §4.4.2).
   int minInliers = 15;
+  /// Inliers a pose from the Manhattan rotation needs after the motion-model (or reference-keyframe) search, before
+  /// the local map: the translation has 3 DoF, where 6-DoF tracking asks for [Tracking] minPoseInliers (ORB-SLAM's
+  /// 10) -- about as many inliers per unknown. The local-map step (minInliers) and the validation still follow.
+  int minPoseInliers = 6;
   /// With the rotation known, the motion-model search window may grow to this x motionModelRadius (ORB-SLAM: 2),
   /// since only the translation's flow is left to cover.
   int searchRadiusFactor = 4;
@@ -132,6 +136,7 @@ struct ManhattanPathParams {
     PSLAM_FIELD(v, normalStride, atLeast(1), "pixel stride of the normals given to the mean shift");
     PSLAM_FIELD(v, maxPriorDeviationDeg, inOpen(0, 45), "Manhattan rotation used only within this angle of the prediction");
     PSLAM_FIELD(v, minInliers, atLeast(3), "local-map inliers a Manhattan pose needs");
+    PSLAM_FIELD(v, minPoseInliers, atLeast(2), "inliers after the search with the Manhattan rotation fixed (3 DoF)");
     PSLAM_FIELD(v, searchRadiusFactor, inClosed(2, 16), "widest motion-model search window, x motionModelRadius");
     PSLAM_FIELD(v, validationKeyFrames, atLeast(1), "n of §4.4.2: points of the last n keyframes validate the pose");
     PSLAM_FIELD(v, validationMinInliers, atLeast(0), "... of which this many must be inliers");
@@ -317,6 +322,9 @@ class Tracker {
   bool softRotationPrior(const Frame& frame) const;
   /// The pose solver of this frame: the translation-only one when the frame has a fixed rotation prior.
   const PoseSolver& solverFor(const Frame& frame) const;
+  /// Inliers the motion-model / reference-keyframe pose of this frame needs: ManhattanPathParams::minPoseInliers
+  /// with a fixed rotation (3 DoF), else TrackerParams::minPoseInliers.
+  int minPoseInliersFor(const Frame& frame) const;
   /// BoW vector and direct index of keyframe `id` in the vocabulary, when it has none yet.
   void computeKeyFrameBow(map::KeyFrameId id);
   /// Same for a frame (once per frame).
