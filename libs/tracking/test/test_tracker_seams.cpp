@@ -255,12 +255,16 @@ TEST(TrackerSeams, TranslationOnlySolverTakesTheRotationPrior) {
 
 namespace {
 /// The scene seen from `slot` as a tracking frame (exact keypoints, the scene's descriptors), no pose, no matches;
-/// `semantic` is its SEMANTIC image (may be empty).
-tracking::Frame viewOf(World& w, int slot, std::size_t index, double timestamp, const cv::Mat& semantic = cv::Mat()) {
+/// `semantic` is its SEMANTIC image (may be empty). `mappedOnly` >= 0: only the first that many keypoints that see a
+/// map point (a frame with few matchable keypoints).
+tracking::Frame viewOf(World& w, int slot, std::size_t index, double timestamp, const cv::Mat& semantic = cv::Mat(),
+                       int mappedOnly = -1) {
   const Eigen::Isometry3d T = mt::poseOf(slot);
   std::vector<cv::KeyPoint> kps;
   cv::Mat desc(0, 32, CV_8U);
   for (std::size_t i = 0; i < w.scene.points.size(); ++i) {
+    if (mappedOnly >= 0 && (static_cast<int>(kps.size()) >= mappedOnly || w.scene.mapPointOf[i] == map::kNoMapPoint))
+      continue;
     const Eigen::Vector3d pc = T * w.scene.points[i];
     if (pc.z() <= 0.1) continue;
     const Eigen::Vector2d px = w.camera.project(pc);
@@ -269,6 +273,20 @@ tracking::Frame viewOf(World& w, int slot, std::size_t index, double timestamp, 
     desc.push_back(w.scene.descriptors[i]);
   }
   return tracking::makeFrameFromFeatures(index, timestamp, w.camera, kps, desc, 8, 1.2, semantic);
+}
+
+/// A tracker on the world's 3-keyframe map with the Manhattan path (translation-only solver), after the slot-3 view
+/// (its true Manhattan frame under R_world_mf) relocalized it and fixed the global Manhattan frame.
+std::unique_ptr<tracking::Tracker> manhattanTrackerAfterSlot3(World& w, const tracking::TrackerParams& tp,
+                                                              const tracking::ManhattanPathParams& mp,
+                                                              const Eigen::Matrix3d& R_world_mf, StageTimings& timings) {
+  auto tracker = std::make_unique<tracking::Tracker>(w.map, w.camera, tp, nullptr, nullptr, 1);
+  tracker->enableManhattanPath(mp, tracking::makePoseSolver("translationOnly", {}));
+  tracker->onMapLoaded();
+  tracking::Frame a = viewOf(w, 3, 3, 3.0);
+  a.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
+  EXPECT_TRUE(tracker->track(a, timings).hasPose) << "the slot-3 view relocalizes";
+  return tracker;
 }
 
 /// viewOf with a SEMANTIC image that is dynamic on the left half of the image and static elsewhere.
@@ -401,17 +419,12 @@ TEST(TrackerManhattanPath, AfterALossTheManhattanPathRetriesFromTheLastPoseForRe
       makeWorldAndFrame(w);
       tracking::TrackerParams tp;
       tp.resetKeyFrames = 2;  // the 3-keyframe map is kept when the blank frames are lost
-      auto tracker = std::make_unique<tracking::Tracker>(w.map, w.camera, tp, nullptr, nullptr, 1);
       tracking::ManhattanPathParams mp;
       mp.enabled = true;
       mp.recoveryFrames = recoveryFrames;
-      tracker->enableManhattanPath(mp, tracking::makePoseSolver("translationOnly", {}));
-      tracker->onMapLoaded();
       const Eigen::Matrix3d R_world_mf = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
       StageTimings timings;
-      tracking::Frame a = viewOf(w, 3, 3, 3.0);
-      a.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
-      ASSERT_TRUE(tracker->track(a, timings).hasPose);
+      auto tracker = manhattanTrackerAfterSlot3(w, tp, mp, R_world_mf, timings);
       for (std::size_t k = 1; k <= gap; ++k) {  // blank frames: lost
         tracking::Frame blank = tracking::makeFrameFromFeatures(3 + k, 3.0 + 0.1 * static_cast<double>(k), w.camera,
                                                                 {}, cv::Mat(0, 32, CV_8U), 8, 1.2, cv::Mat());
@@ -430,25 +443,6 @@ TEST(TrackerManhattanPath, AfterALossTheManhattanPathRetriesFromTheLastPoseForRe
   }
 }
 
-namespace {
-/// viewOf with only the first `count` keypoints that see a map point: a frame with few matchable keypoints.
-tracking::Frame sparseViewOf(World& w, int slot, std::size_t index, double timestamp, int count) {
-  const Eigen::Isometry3d T = mt::poseOf(slot);
-  std::vector<cv::KeyPoint> kps;
-  cv::Mat desc(0, 32, CV_8U);
-  for (std::size_t i = 0; i < w.scene.points.size() && static_cast<int>(kps.size()) < count; ++i) {
-    if (w.scene.mapPointOf[i] == map::kNoMapPoint) continue;
-    const Eigen::Vector3d pc = T * w.scene.points[i];
-    if (pc.z() <= 0.1) continue;
-    const Eigen::Vector2d px = w.camera.project(pc);
-    if (px.x() < 0 || px.y() < 0 || px.x() >= 640 || px.y() >= 480) continue;
-    kps.emplace_back(cv::Point2f(float(px.x()), float(px.y())), 31.f, w.scene.angles[i], 1.f, 0);
-    desc.push_back(w.scene.descriptors[i]);
-  }
-  return tracking::makeFrameFromFeatures(index, timestamp, w.camera, kps, desc, 8, 1.2);
-}
-}  // namespace
-
 TEST(TrackerManhattanPath, AFixedRotationNeedsFewerPoseInliersThanASixDofPose) {
   // [Manhattan] minPoseInliers: with the Manhattan rotation fixed the motion-model pose has 3 DoF, so the default 6
   // inliers carry it; a frame with 8 matchable keypoints is tracked at its true pose. With 6-DoF tracking's 10 (the
@@ -460,21 +454,16 @@ TEST(TrackerManhattanPath, AFixedRotationNeedsFewerPoseInliersThanASixDofPose) {
     tracking::TrackerParams tp;
     tp.resetKeyFrames = 2;    // a lost frame keeps the 3-keyframe map
     tp.minMotionMatches = 5;  // the search result reaches the pose optimization
-    auto tracker = std::make_unique<tracking::Tracker>(w.map, w.camera, tp, nullptr, nullptr, 1);
     tracking::ManhattanPathParams mp;
     mp.enabled = true;
     mp.minPoseInliers = minPoseInliers;
     mp.minInliers = 5;
     mp.validationMinInliers = 5;
     mp.validationMinRatio = 0.0;
-    tracker->enableManhattanPath(mp, tracking::makePoseSolver("translationOnly", {}));
-    tracker->onMapLoaded();
     const Eigen::Matrix3d R_world_mf = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
     StageTimings timings;
-    tracking::Frame a = viewOf(w, 3, 3, 3.0);
-    a.R_cam_mf = mt::poseOf(3).linear() * R_world_mf;
-    ASSERT_TRUE(tracker->track(a, timings).hasPose);
-    tracking::Frame b = sparseViewOf(w, 4, 4, 4.0, 8);
+    auto tracker = manhattanTrackerAfterSlot3(w, tp, mp, R_world_mf, timings);
+    tracking::Frame b = viewOf(w, 4, 4, 4.0, cv::Mat(), 8);
     ASSERT_EQ(b.size(), 8u);
     b.R_cam_mf = mt::poseOf(4).linear() * R_world_mf;
     const auto rb = tracker->track(b, timings);
