@@ -5,7 +5,7 @@
 //                        | u64 descriptor bytes per row | segments x that many bytes | segments x i64 line id (-1)
 //   u64 lines, each: u64 id | 6 f64 endpoints | u8 fixed | u64 descriptor bytes | bytes | u64 observations,
 //                    each u64 keyframe | i32 segment | u64 createdAt | u32 visible | u32 found | u8 bad
-// restore() checks every count, value and cross-reference before it replaces the store.
+// parse() checks every count, value and cross-reference; restore() installs only a store that passed.
 #include <set>
 
 #include "pslam/core/ByteCodec.h"
@@ -67,7 +67,19 @@ std::string LineFrontEnd::serialize() const {
 }
 
 void LineFrontEnd::restore(const std::string& bytes, const map::Map& map) {
+  reset();  // a refused store leaves the front end empty
+  restore(parse(bytes, map));
+}
+
+void LineFrontEnd::restore(Store store) {
   reset();
+  lines_ = std::move(store.lines);
+  keyframes_ = std::move(store.keyframes);
+  nextId_ = store.nextId;
+  keyframesAdded_ = store.keyframesAdded;
+}
+
+LineFrontEnd::Store LineFrontEnd::parse(const std::string& bytes, const map::Map& map) {
   ByteReader r(bytes, "lines");
   r.header(kMagic, kVersion, "line store");
   std::map<std::uint64_t, MapLine> lines;
@@ -146,10 +158,12 @@ void LineFrontEnd::restore(const std::string& bytes, const map::Map& map) {
         throw Error("lines: segment " + std::to_string(s) + " of keyframe " + std::to_string(kf) + " names line " +
                     std::to_string(l) + ", which does not observe it there");
     }
-  lines_ = std::move(lines);
-  keyframes_ = std::move(keyframes);
-  nextId_ = nextId;
-  keyframesAdded_ = keyframesAdded;
+  Store store;
+  store.lines = std::move(lines);
+  store.keyframes = std::move(keyframes);
+  store.nextId = nextId;
+  store.keyframesAdded = keyframesAdded;
+  return store;
 }
 
 }  // namespace pslam::lines

@@ -781,8 +781,9 @@ void System::setMap(map::Map loaded, const std::string& source) {
   const std::string* directPoints =
       impl_->directFrontEnd ? loaded.extension(direct::DirectFrontEnd::kMapExtension) : nullptr;
   std::map<map::KeyFrameId, direct::DirectHost> directHosts;
+  lines::LineFrontEnd::Store lines;
   try {
-    if (lineStore) lines::LineFrontEnd(impl_->lineFrontEnd->params(), impl_->camera).restore(*lineStore, loaded);
+    if (lineStore) lines = lines::LineFrontEnd::parse(*lineStore, loaded);
     if (loopEdges) loopclosing::LoopCloser::parseLoopEdges(*loopEdges, loaded);
     if (directPoints) directHosts = direct::DirectFrontEnd::parse(*directPoints, loaded);
   } catch (const Error& e) {
@@ -796,7 +797,7 @@ void System::setMap(map::Map loaded, const std::string& source) {
   impl_->newGeneration();  // resets loop closing
   // The lines, loop edges and direct points the map was saved with (its extensions "lines", "loop_edges",
   // "direct_points").
-  if (lineStore) impl_->lineFrontEnd->restore(*impl_->map.extension(lines::LineFrontEnd::kMapExtension), impl_->map);
+  if (lineStore) impl_->lineFrontEnd->restore(std::move(lines));
   if (loopEdges)
     impl_->loopCloser->restoreLoopEdges(*impl_->map.extension(loopclosing::LoopCloser::kMapExtension), impl_->map);
   if (directPoints) impl_->directFrontEnd->restore(std::move(directHosts));

@@ -160,6 +160,17 @@ class LineFrontEnd : public tracking::LineSource {
   /// every observation and segment index consistent. Throws pslam::Error saying what is wrong ("lines: ...") and
   /// leaves the store empty then.
   void restore(const std::string& bytes, const map::Map& map);
+  /// What serialize() wrote, checked as restore() checks it, without a front end (loading checks a map's store
+  /// before it replaces anything, then installs the parsed store).
+  struct Store {
+    std::map<std::uint64_t, MapLine> lines;
+    std::map<map::KeyFrameId, LineKeyFrame> keyframes;
+    std::uint64_t nextId = 0;
+    std::uint64_t keyframesAdded = 0;
+  };
+  static Store parse(const std::string& bytes, const map::Map& map);
+  /// Replaces the store by one parse() returned (its keyframes must be in the map the front end tracks in).
+  void restore(Store store);
   static constexpr const char* kMapExtension = "lines";
 
   /// Adds a line (tests): world endpoints, descriptor, observations (keyframe -> segment). Returns its id.
