@@ -17,16 +17,6 @@
 
 namespace pslam::features {
 namespace fs = std::filesystem;
-namespace {
-// CPU time of the whole process (all threads, incl. OpenCV's workers): on a shared, loaded machine this is a
-// better estimate of the unloaded run time than wall-clock time, which includes waiting for a core.
-double processCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-}  // namespace
-
 GridSpread gridSpread(const std::vector<cv::KeyPoint>& keypoints, cv::Size imageSize, int cols, int rows) {
   require(cols > 0 && rows > 0 && imageSize.width > 0 && imageSize.height > 0, "gridSpread", "empty grid or image");
   std::vector<int> counts(static_cast<size_t>(cols) * rows, 0);

@@ -4,8 +4,15 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <ctime>
 
 namespace pslam {
+
+double processCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
 
 void StageTimings::add(const std::string& stage, double ms) { samples_[stage].push_back(ms); }
 

@@ -16,11 +16,6 @@ namespace pslam::features {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double processCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 // One quadtree node: an axis-aligned cell [x0,x1) x [y0,y1) and the keypoints inside it.
 struct QuadNode {

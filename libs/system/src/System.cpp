@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "pslam/core/Error.h"
+#include "pslam/core/StageTimer.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/manhattan/ManhattanTracker.h"
@@ -24,11 +25,7 @@
 
 namespace pslam::system {
 
-double processCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
+double processCpuSeconds() { return processCpuMs() * 1e-3; }
 
 namespace {
 

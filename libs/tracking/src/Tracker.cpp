@@ -77,13 +77,16 @@ bool Tracker::softRotationPrior(const Frame& frame) const {
   return frame.rotationPrior && manhattanParams_.trackingRotation != "fixed";
 }
 
+bool Tracker::fixedRotation(const Frame& frame) const {
+  return frame.rotationPrior && !softRotationPrior(frame) && manhattanSolver_;
+}
+
 const PoseSolver& Tracker::solverFor(const Frame& frame) const {
-  return frame.rotationPrior && !softRotationPrior(frame) && manhattanSolver_ ? *manhattanSolver_ : *solver_;
+  return fixedRotation(frame) ? *manhattanSolver_ : *solver_;
 }
 
 int Tracker::minPoseInliersFor(const Frame& frame) const {
-  return frame.rotationPrior && !softRotationPrior(frame) && manhattanSolver_ ? manhattanParams_.minPoseInliers
-                                                                              : params_.minPoseInliers;
+  return fixedRotation(frame) ? manhattanParams_.minPoseInliers : params_.minPoseInliers;
 }
 
 void Tracker::setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> policy) {

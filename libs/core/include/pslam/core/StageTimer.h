@@ -26,6 +26,10 @@ inline double msSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
+/// CPU time of the whole process so far (all threads, OpenCV's workers included), in milliseconds: on a shared,
+/// loaded machine a better estimate of the unloaded cost than wall-clock time, which includes waiting for a core.
+double processCpuMs();
+
 /// Percentile (0..100) by linear interpolation between order statistics; NaN for an empty set.
 double percentile(std::vector<double> values, double p);
 

@@ -320,6 +320,9 @@ class Tracker {
   /// The frame's rotationPrior is a soft measurement of its pose (ManhattanPathParams::trackingRotation
   /// "absolute" / "relative"), not a fixed rotation.
   bool softRotationPrior(const Frame& frame) const;
+  /// The frame's rotation is fixed by its prior (trackingRotation "fixed" with a translation-only solver): its pose
+  /// has 3 DoF.
+  bool fixedRotation(const Frame& frame) const;
   /// The pose solver of this frame: the translation-only one when the frame has a fixed rotation prior.
   const PoseSolver& solverFor(const Frame& frame) const;
   /// Inliers the motion-model / reference-keyframe pose of this frame needs: ManhattanPathParams::minPoseInliers
