@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <mrpt/config/CConfigFileBase.h>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "pslam/core/Error.h"
@@ -14,17 +15,56 @@ PSLAM_DEFINE_PARAMS(DirectSelectorParams)
 
 DirectPointSelector::DirectPointSelector(const DirectSelectorParams& params) : params_(params) { params_.check(); }
 
+namespace {
+
+/// Largest value of p[0..n), n >= 1. Four lanes at a time where the CPU has them (128-bit universal intrinsics):
+/// the selection scans every pixel once per block size it tries, so this loop is most of its time.
+float segmentMax(const float* p, int n) {
+  int x = 0;
+  float m = p[0];
+#if CV_SIMD128
+  if (n >= 4) {
+    cv::v_float32x4 v = cv::v_load(p);
+    for (x = 4; x + 4 <= n; x += 4) v = cv::v_max(v, cv::v_load(p + x));
+    m = cv::v_reduce_max(v);
+  }
+#endif
+  for (; x < n; ++x) m = std::max(m, p[x]);
+  return m;
+}
+
+/// The best pixel of a block: the largest gradient, and among equal ones the first in row-major order (the one a
+/// row-major scan with a strict comparison keeps).
+struct BlockBest {
+  float value = -1.f;  // gradients are >= 0: any pixel beats the empty block
+  int x = 0, y = 0;
+};
+
+bool isBetter(const BlockBest& a, const BlockBest& b) {
+  return a.value > b.value || (a.value == b.value && (a.y < b.y || (a.y == b.y && a.x < b.x)));
+}
+
+}  // namespace
+
 cv::Mat DirectPointSelector::gradientMagnitude(const cv::Mat& grey) {
-  cv::Mat gx, gy, mag;
-  // ksize 1 = [-1 0 1]; scale 0.5 makes it the central difference (I(x+1) - I(x-1)) / 2.
-  cv::Sobel(grey, gx, CV_32F, 1, 0, 1, 0.5, 0, cv::BORDER_REPLICATE);
-  cv::Sobel(grey, gy, CV_32F, 0, 1, 1, 0.5, 0, cv::BORDER_REPLICATE);
-  cv::magnitude(gx, gy, mag);
-  // The outermost ring has no two-sided difference: never select it.
-  mag.row(0).setTo(0);
-  mag.row(mag.rows - 1).setTo(0);
-  mag.col(0).setTo(0);
-  mag.col(mag.cols - 1).setTo(0);
+  require(!grey.empty() && grey.type() == CV_8UC1, "DirectPointSelector::gradientMagnitude",
+          "image must be a non-empty CV_8UC1");
+  // Central differences (I(x+1) - I(x-1)) / 2: with integer grey levels the squared magnitude
+  // (dx^2 + dy^2) / 4 is exact in float, so the square root is the correctly rounded |grad I| (the same bits as
+  // Sobel(ksize 1, scale 0.5) followed by cv::magnitude, without their two gradient images).
+  cv::Mat mag(grey.size(), CV_32FC1, cv::Scalar(0));
+  for (int y = 1; y + 1 < grey.rows; ++y) {
+    const uchar* up = grey.ptr<uchar>(y - 1);
+    const uchar* row = grey.ptr<uchar>(y);
+    const uchar* down = grey.ptr<uchar>(y + 1);
+    float* out = mag.ptr<float>(y);
+    for (int x = 1; x + 1 < grey.cols; ++x) {
+      const int dx = row[x + 1] - row[x - 1], dy = down[x] - up[x];
+      out[x] = 0.25f * static_cast<float>(dx * dx + dy * dy);
+    }
+  }
+  cv::sqrt(mag, mag);
+  // The outermost ring has no two-sided difference and stays 0: it is never selected.
   return mag;
 }
 
@@ -37,62 +77,66 @@ std::vector<DirectPoint> DirectPointSelector::selectWithBlockSize(const cv::Mat&
   const float delta[3] = {params_.thresholdOffset, params_.thresholdOffset * params_.thresholdDecay,
                           params_.thresholdOffset * params_.thresholdDecay * params_.thresholdDecay};
 
-  // Best pixel of block [bx, bx+w) x [by, by+w) whose gradient exceeds the block mean + delta (Algorithm 3,
-  // lines 10-16); returns false if none qualifies.
-  auto bestInBlock = [&](int bx, int by, int w, float d, DirectPoint& best) {
+  // One scan finds the best pixel of every W block (blocks aligned at (x0, y0)); the best pixel of a 2W or 4W
+  // block is the best of its W blocks' ones.
+  const int nx = (x1 - x0 + W - 1) / W, ny = (y1 - y0 + W - 1) / W;
+  std::vector<BlockBest> cells(static_cast<std::size_t>(nx) * ny);
+  for (int j = 0; j < ny; ++j) {
+    BlockBest* cellRow = &cells[static_cast<std::size_t>(j) * nx];
+    for (int y = y0 + j * W; y < std::min(y0 + (j + 1) * W, y1); ++y) {
+      const float* row = grad.ptr<float>(y);
+      for (int i = 0; i < nx; ++i) {
+        const int bx = x0 + i * W, ex = std::min(bx + W, x1);
+        const float m = segmentMax(row + bx, ex - bx);
+        BlockBest& c = cellRow[i];
+        if (m > c.value) {  // earlier rows win ties: strict
+          int x = bx;
+          while (row[x] != m) ++x;
+          c = {m, x, y};
+        }
+      }
+    }
+  }
+  // Best of the W blocks [i0, i0 + n) x [j0, j0 + n) (clipped to the grid).
+  auto bestOfCells = [&](int i0, int j0, int n) {
+    BlockBest best;
+    for (int j = j0; j < std::min(j0 + n, ny); ++j)
+      for (int i = i0; i < std::min(i0 + n, nx); ++i)
+        if (isBetter(cells[static_cast<std::size_t>(j) * nx + i], best)) best = cells[static_cast<std::size_t>(j) * nx + i];
+    return best;
+  };
+  // The block [bx, bx+w) x [by, by+w) qualifies when its best pixel exceeds the block mean + d (Algorithm 3, lines
+  // 10-16).
+  auto take = [&](int bx, int by, int w, float d, const BlockBest& best, int level) {
     const int ex = std::min(bx + w, x1), ey = std::min(by + w, y1);
-    if (ex <= bx || ey <= by) return false;
     const double sum = integral.at<double>(ey, ex) - integral.at<double>(by, ex) - integral.at<double>(ey, bx) +
                        integral.at<double>(by, bx);
     const float threshold = static_cast<float>(sum / ((ex - bx) * (ey - by))) + d;
-    bool found = false;
-    for (int y = by; y < ey; ++y) {
-      const float* row = grad.ptr<float>(y);
-      for (int x = bx; x < ex; ++x)
-        if (row[x] > threshold && (!found || row[x] > best.gradient)) {
-          best.pixel = {x, y};
-          best.gradient = row[x];
-          found = true;
-        }
-    }
-    return found;
+    if (!(best.value > threshold)) return false;
+    DirectPoint p;
+    p.pixel = {best.x, best.y};
+    p.gradient = best.value;
+    p.blockLevel = level;
+    out.push_back(p);
+    return true;
   };
 
   // DSO's hierarchy: a 2W block contributes only if none of its W blocks did, a 4W block only if none of its 2W
   // blocks did, with thresholds decreasing with the block size; this fills weakly textured regions sparsely
   // instead of leaving them empty.
-  for (int Y = y0; Y < y1; Y += 4 * W)
-    for (int X = x0; X < x1; X += 4 * W) {
+  for (int J = 0; J < ny; J += 4)
+    for (int I = 0; I < nx; I += 4) {
       bool any4 = false;
-      for (int y2 = Y; y2 < std::min(Y + 4 * W, y1); y2 += 2 * W)
-        for (int x2 = X; x2 < std::min(X + 4 * W, x1); x2 += 2 * W) {
+      for (int j2 = J; j2 < std::min(J + 4, ny); j2 += 2)
+        for (int i2 = I; i2 < std::min(I + 4, nx); i2 += 2) {
           bool any2 = false;
-          for (int y = y2; y < std::min(y2 + 2 * W, y1); y += W)
-            for (int x = x2; x < std::min(x2 + 2 * W, x1); x += W) {
-              DirectPoint p;
-              if (bestInBlock(x, y, W, delta[0], p)) {
-                p.blockLevel = 0;
-                out.push_back(p);
-                any2 = true;
-              }
-            }
-          if (!any2) {
-            DirectPoint p;
-            if (bestInBlock(x2, y2, 2 * W, delta[1], p)) {
-              p.blockLevel = 1;
-              out.push_back(p);
-              any2 = true;
-            }
-          }
+          for (int j = j2; j < std::min(j2 + 2, ny); ++j)
+            for (int i = i2; i < std::min(i2 + 2, nx); ++i)
+              any2 = take(x0 + i * W, y0 + j * W, W, delta[0], cells[static_cast<std::size_t>(j) * nx + i], 0) || any2;
+          if (!any2) any2 = take(x0 + i2 * W, y0 + j2 * W, 2 * W, delta[1], bestOfCells(i2, j2, 2), 1);
           any4 = any4 || any2;
         }
-      if (!any4) {
-        DirectPoint p;
-        if (bestInBlock(X, Y, 4 * W, delta[2], p)) {
-          p.blockLevel = 2;
-          out.push_back(p);
-        }
-      }
+      if (!any4) take(x0 + I * W, y0 + J * W, 4 * W, delta[2], bestOfCells(I, J, 4), 2);
     }
   return out;
 }

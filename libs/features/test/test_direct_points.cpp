@@ -2,6 +2,7 @@
 // maxima (brute force), cover weak-contrast regions, approach the target count; determinism and errors.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <set>
 
 #include <mrpt/config/CConfigFileMemory.h>
@@ -56,6 +57,91 @@ TEST(DirectPoints, LevelZeroPointsAreBlockMaximaAboveTheBlockThreshold) {
       }
     EXPECT_GT(pt.gradient, sum / n + p.thresholdOffset - 1e-3);
     EXPECT_FLOAT_EQ(pt.gradient, maxGrad);
+  }
+}
+
+namespace {
+
+// Algorithm 3 spelled out: every block scanned on its own for its best pixel above the block threshold (the
+// selector finds all W blocks' best pixels in one scan and combines them for the 2W and 4W blocks).
+std::vector<DirectPoint> perBlockScan(const cv::Mat& grad, const cv::Mat& integral, int W, const DirectSelectorParams& p) {
+  std::vector<DirectPoint> out;
+  const int x0 = p.border, y0 = p.border, x1 = grad.cols - p.border, y1 = grad.rows - p.border;
+  const float delta[3] = {p.thresholdOffset, p.thresholdOffset * p.thresholdDecay,
+                          p.thresholdOffset * p.thresholdDecay * p.thresholdDecay};
+  auto bestInBlock = [&](int bx, int by, int w, int level) {
+    const int ex = std::min(bx + w, x1), ey = std::min(by + w, y1);
+    const double sum = integral.at<double>(ey, ex) - integral.at<double>(by, ex) - integral.at<double>(ey, bx) +
+                       integral.at<double>(by, bx);
+    const float threshold = static_cast<float>(sum / ((ex - bx) * (ey - by))) + delta[level];
+    DirectPoint best;
+    bool found = false;
+    for (int y = by; y < ey; ++y)
+      for (int x = bx; x < ex; ++x)
+        if (grad.at<float>(y, x) > threshold && (!found || grad.at<float>(y, x) > best.gradient)) {
+          best.pixel = {x, y};
+          best.gradient = grad.at<float>(y, x);
+          best.blockLevel = level;
+          found = true;
+        }
+    if (found) out.push_back(best);
+    return found;
+  };
+  for (int Y = y0; Y < y1; Y += 4 * W)
+    for (int X = x0; X < x1; X += 4 * W) {
+      bool any4 = false;
+      for (int y2 = Y; y2 < std::min(Y + 4 * W, y1); y2 += 2 * W)
+        for (int x2 = X; x2 < std::min(X + 4 * W, x1); x2 += 2 * W) {
+          bool any2 = false;
+          for (int y = y2; y < std::min(y2 + 2 * W, y1); y += W)
+            for (int x = x2; x < std::min(x2 + 2 * W, x1); x += W) any2 = bestInBlock(x, y, W, 0) || any2;
+          if (!any2) any2 = bestInBlock(x2, y2, 2 * W, 1);
+          any4 = any4 || any2;
+        }
+      if (!any4) bestInBlock(X, Y, 4 * W, 2);
+    }
+  return out;
+}
+
+}  // namespace
+
+TEST(DirectPoints, SameBitsAsThePlainGradientAndThePerBlockScan) {
+  // Textured, weak-contrast, quantized (many equal gradients: ties inside and between blocks) and odd-sized
+  // images, at block sizes that leave clipped blocks at the right and bottom.
+  std::vector<cv::Mat> images{texturedImage(640, 480, 21), texturedImage(333, 217, 22)};
+  cv::Mat weak = texturedImage(320, 240, 23);
+  weak.convertTo(weak, CV_8U, 0.1, 120);
+  images.push_back(weak);
+  cv::Mat quantized = texturedImage(301, 199, 24);
+  quantized.forEach<uchar>([](uchar& v, const int*) { v = static_cast<uchar>(v / 64 * 64); });
+  images.push_back(quantized);
+  DirectSelectorParams p;
+  const DirectPointSelector sel(p);
+  for (std::size_t k = 0; k < images.size(); ++k) {
+    const cv::Mat& img = images[k];
+    cv::Mat gx, gy, plain;
+    cv::Sobel(img, gx, CV_32F, 1, 0, 1, 0.5, 0, cv::BORDER_REPLICATE);
+    cv::Sobel(img, gy, CV_32F, 0, 1, 1, 0.5, 0, cv::BORDER_REPLICATE);
+    cv::magnitude(gx, gy, plain);
+    plain.row(0).setTo(0);
+    plain.row(plain.rows - 1).setTo(0);
+    plain.col(0).setTo(0);
+    plain.col(plain.cols - 1).setTo(0);
+    const cv::Mat grad = DirectPointSelector::gradientMagnitude(img);
+    ASSERT_EQ(grad.type(), CV_32FC1);
+    ASSERT_EQ(0, std::memcmp(grad.data, plain.data, plain.total() * sizeof(float))) << "image " << k;
+    cv::Mat integral;
+    cv::integral(grad, integral, CV_64F);
+    for (int W : {2, 3, 5, 7, 12, 16, 41}) {
+      const auto got = sel.selectWithBlockSize(grad, integral, W);
+      const auto want = perBlockScan(grad, integral, W, p);
+      ASSERT_EQ(got.size(), want.size()) << "image " << k << " W " << W;
+      for (std::size_t i = 0; i < got.size(); ++i) {
+        EXPECT_EQ(got[i].pixel, want[i].pixel) << "image " << k << " W " << W << " point " << i;
+        EXPECT_EQ(got[i].gradient, want[i].gradient);
+        EXPECT_EQ(got[i].blockLevel, want[i].blockLevel);
+      }
+    }
   }
 }
 
