@@ -81,20 +81,24 @@ std::vector<DirectPoint> DirectPointSelector::selectWithBlockSize(const cv::Mat&
   // block is the best of its W blocks' ones.
   const int nx = (x1 - x0 + W - 1) / W, ny = (y1 - y0 + W - 1) / W;
   std::vector<BlockBest> cells(static_cast<std::size_t>(nx) * ny);
+  std::vector<float> rowMax(static_cast<std::size_t>(nx) * W);  // [i * W + r]: row r of the band's block i
   for (int j = 0; j < ny; ++j) {
-    BlockBest* cellRow = &cells[static_cast<std::size_t>(j) * nx];
-    for (int y = y0 + j * W; y < std::min(y0 + (j + 1) * W, y1); ++y) {
-      const float* row = grad.ptr<float>(y);
+    const int by = y0 + j * W, rows = std::min(W, y1 - by);
+    for (int r = 0; r < rows; ++r) {
+      const float* row = grad.ptr<float>(by + r);
       for (int i = 0; i < nx; ++i) {
-        const int bx = x0 + i * W, ex = std::min(bx + W, x1);
-        const float m = segmentMax(row + bx, ex - bx);
-        BlockBest& c = cellRow[i];
-        if (m > c.value) {  // earlier rows win ties: strict
-          int x = bx;
-          while (row[x] != m) ++x;
-          c = {m, x, y};
-        }
+        const int bx = x0 + i * W;
+        rowMax[static_cast<std::size_t>(i) * W + r] = segmentMax(row + bx, std::min(W, x1 - bx));
       }
+    }
+    // The first row holding the block's maximum, then the first pixel of it in that row.
+    for (int i = 0; i < nx; ++i) {
+      const float* m = &rowMax[static_cast<std::size_t>(i) * W];
+      const int r = static_cast<int>(std::max_element(m, m + rows) - m);
+      const float* row = grad.ptr<float>(by + r);
+      int x = x0 + i * W;
+      while (row[x] != m[r]) ++x;
+      cells[static_cast<std::size_t>(j) * nx + i] = {m[r], x, by + r};
     }
   }
   // Best of the W blocks [i0, i0 + n) x [j0, j0 + n) (clipped to the grid).
