@@ -14,6 +14,7 @@ PhotometricPoseFactor::PhotometricPoseFactor(std::shared_ptr<const DirectLandmar
                                              int level, const PhotometricParams& params)
     : point_(std::move(point)),
       T_host_world_(T_host_world),
+      T_world_host_(T_host_world.inverse()),
       hostAffine_(hostAffine),
       targetAffine_(targetAffine),
       target_(std::move(target)),
@@ -35,17 +36,17 @@ std::shared_ptr<PhotometricPoseFactor> PhotometricPoseFactor::atLevel(int level)
 }
 
 PatternError PhotometricPoseFactor::patternError(const Eigen::Isometry3d& T_target_world) const {
-  return evaluatePattern(*point_, level_, rays_, T_target_world * T_host_world_.inverse(), point_->inverseDepth,
+  return evaluatePattern(*point_, level_, rays_, T_target_world * T_world_host_, point_->inverseDepth,
                          camera_, target_->level(level_), hostAffine_, targetAffine_);
 }
 
-bool PhotometricPoseFactor::evaluate(const Eigen::Isometry3d& T_cam_world, Eigen::VectorXd& residual,
-                                     Eigen::MatrixXd* jacobian) const {
+bool PhotometricPoseFactor::evaluateFixed(const Eigen::Isometry3d& T_cam_world, Residual& residual,
+                                          Jacobian* jacobian) const {
   const PatternError pe = patternError(T_cam_world);
   const double w = params_.whiteningScale();  // sqrt(eta_P / eta_R), eq. 3.6 with Table 3.2
   residual = w * pe.e;
   if (jacobian) {
-    jacobian->setZero(kPatternSize, 6);
+    jacobian->setZero();
     if (pe.valid) {
       const map::CameraIntrinsics c = levelCamera(camera_, level_);
       const double rhoZ = point_->inverseDepth / point_->bearing.z();
@@ -63,6 +64,32 @@ bool PhotometricPoseFactor::evaluate(const Eigen::Isometry3d& T_cam_world, Eigen
     }
   }
   return pe.valid;
+}
+
+bool PhotometricPoseFactor::evaluate(const Eigen::Isometry3d& T_cam_world, Eigen::VectorXd& residual,
+                                     Eigen::MatrixXd* jacobian) const {
+  Residual r;
+  Jacobian J;
+  const bool valid = evaluateFixed(T_cam_world, r, jacobian ? &J : nullptr);
+  residual = r;
+  if (jacobian) *jacobian = J;
+  return valid;
+}
+
+bool PhotometricPoseFactor::addTo(PoseNormalEquations& eq, const Eigen::Isometry3d& T_cam_world,
+                                  double huberDelta) const {
+  Residual r;
+  Jacobian J;
+  if (!evaluateFixed(T_cam_world, r, &J)) return false;
+  eq.add(r, J, huberDelta);
+  return true;
+}
+
+bool PhotometricPoseFactor::squaredResidual(const Eigen::Isometry3d& T_cam_world, double& chi2) const {
+  Residual r;
+  const bool valid = evaluateFixed(T_cam_world, r, nullptr);
+  chi2 = r.squaredNorm();
+  return valid;
 }
 
 PoseOptimizationResult optimizePoseCoarseToFine(const Eigen::Isometry3d& T_cam_world_initial,

@@ -44,31 +44,10 @@ Eigen::Isometry3d retractPoseLeft(const Eigen::Matrix<double, 6, 1>& xi, const E
 
 namespace {
 
-/// Robust cost and Gauss-Newton system of the active observations at T (Huber when `huberDelta` > 0, as
-/// ceres::HuberLoss: rho(s) = s for s <= d^2, 2 d sqrt(s) - d^2 beyond; weights rho'(s), i.e. IRLS).
-struct Linearization {
-  double cost = 0.0;  // 0.5 * sum rho(s)
-  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
-  Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
-};
+/// Robust cost and Gauss-Newton system of the active observations at T.
+using Linearization = PoseNormalEquations;
 
 using Factors = std::vector<std::shared_ptr<const PoseFactor>>;
-
-/// Adds one whitened residual block r (Jacobian J) to L with the Huber weight of `huberDelta`.
-template <class Residual, class Jacobian>
-void accumulate(Linearization& L, const Residual& r, const Jacobian& J, double huberDelta) {
-  const double d2 = huberDelta * huberDelta;
-  const double s = r.squaredNorm();
-  double w = 1.0, rho = s;
-  if (huberDelta > 0.0 && s > d2) {
-    const double e = std::sqrt(s);
-    rho = 2.0 * huberDelta * e - d2;
-    w = huberDelta / e;
-  }
-  L.cost += 0.5 * rho;
-  L.H.noalias() += w * J.transpose() * J;
-  L.g.noalias() += w * J.transpose() * r;
-}
 
 Linearization linearize(const Eigen::Isometry3d& T, const map::CameraIntrinsics& camera,
                         const std::vector<PoseObservation>& obs, const std::vector<bool>& excluded, double huberDelta,
@@ -79,15 +58,10 @@ Linearization linearize(const Eigen::Isometry3d& T, const map::CameraIntrinsics&
   for (std::size_t i = 0; i < obs.size(); ++i) {
     if (excluded[i]) continue;
     poseOnlyResidual(T, camera, obs[i], r, &J);
-    accumulate(L, r, J, huberDelta);
+    L.add(r, J, huberDelta);
   }
-  Eigen::VectorXd rf;
-  Eigen::MatrixXd Jf;
-  for (std::size_t i = 0; i < factors.size(); ++i) {
-    if (factorExcluded[i]) continue;
-    if (!factors[i]->evaluate(T, rf, &Jf)) continue;
-    accumulate(L, rf, Jf, robust ? factors[i]->huberDelta() : 0.0);
-  }
+  for (std::size_t i = 0; i < factors.size(); ++i)
+    if (!factorExcluded[i]) factors[i]->addTo(L, T, robust ? factors[i]->huberDelta() : 0.0);
   return L;
 }
 
@@ -141,14 +115,6 @@ Eigen::Isometry3d levenbergMarquardt(const Eigen::Isometry3d& start, const map::
   return T;
 }
 
-/// Squared whitened residual of a factor at T; false when it is not valid there.
-bool factorChi2(const Eigen::Isometry3d& T, const PoseFactor& f, double& chi2) {
-  Eigen::VectorXd r;
-  const bool ok = f.evaluate(T, r, nullptr);
-  chi2 = r.squaredNorm();
-  return ok;
-}
-
 }  // namespace
 
 PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial, const map::CameraIntrinsics& camera,
@@ -179,7 +145,27 @@ PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial
     return result;
   }
 
+  // Chi-square and inlier flag of every observation and factor at a pose. Each round classifies at its
+  // solution; the last round's classification is the returned one (the pose does not change after it).
+  std::vector<double> chi2(observations.size()), factorChi2(factors.size());
+  auto classify = [&](const Eigen::Isometry3d& T) {
+    int inliers = 0;
+    for (std::size_t i = 0; i < observations.size(); ++i) {
+      bool inFront = false;
+      chi2[i] = chi2At(T, camera, observations[i], inFront);
+      result.outlier[i] = !(chi2[i] <= params.chi2Threshold) || !inFront;
+      inliers += result.outlier[i] ? 0 : 1;
+    }
+    for (std::size_t i = 0; i < factors.size(); ++i) {
+      const bool valid = factors[i]->squaredResidual(T, factorChi2[i]);
+      result.factorOutlier[i] = !(factorChi2[i] <= factors[i]->chi2Threshold()) || !valid;
+      inliers += result.factorOutlier[i] ? 0 : 1;
+    }
+    return inliers;
+  };
+
   Eigen::Isometry3d solved = T_cam_world_initial;  // the estimate of the last round actually solved
+  bool classifiedAtSolved = false;
   for (int round = 0; round < params.rounds; ++round) {
     int used = 0;
     for (bool out : result.outlier) used += out ? 0 : 1;
@@ -190,42 +176,25 @@ PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial
                                 round < params.robustRounds ? params.huberDelta : 0.0, params.iterationsPerRound,
                                 factors, result.factorOutlier, freedom);
     result.roundsRun = round + 1;
-
-    int inliers = 0;
-    for (std::size_t i = 0; i < observations.size(); ++i) {
-      bool inFront = false;
-      const double chi2 = chi2At(solved, camera, observations[i], inFront);
-      result.outlier[i] = !(chi2 <= params.chi2Threshold) || !inFront;
-      inliers += result.outlier[i] ? 0 : 1;
-    }
-    for (std::size_t i = 0; i < factors.size(); ++i) {
-      double chi2 = 0.0;
-      const bool valid = factorChi2(solved, *factors[i], chi2);
-      result.factorOutlier[i] = !(chi2 <= factors[i]->chi2Threshold()) || !valid;
-      inliers += result.factorOutlier[i] ? 0 : 1;
-    }
+    const int inliers = classify(solved);
+    classifiedAtSolved = true;
     if (inliers < params.minInliersToContinue) break;
   }
 
   // Classification and chi-square at the returned pose.
   result.T_cam_world = solved;
+  if (!classifiedAtSolved) classify(solved);
   result.inliers = 0;
   result.finalChi2Sum = 0.0;
   for (std::size_t i = 0; i < observations.size(); ++i) {
-    bool inFront = false;
-    const double chi2 = chi2At(solved, camera, observations[i], inFront);
-    result.outlier[i] = !(chi2 <= params.chi2Threshold) || !inFront;
     if (result.outlier[i]) continue;
     ++result.inliers;
-    result.finalChi2Sum += chi2;
+    result.finalChi2Sum += chi2[i];
   }
   for (std::size_t i = 0; i < factors.size(); ++i) {
-    double chi2 = 0.0;
-    const bool valid = factorChi2(solved, *factors[i], chi2);
-    result.factorOutlier[i] = !(chi2 <= factors[i]->chi2Threshold()) || !valid;
     if (result.factorOutlier[i]) continue;
     ++result.inliers;
-    result.finalChi2Sum += chi2;
+    result.finalChi2Sum += factorChi2[i];
   }
   return result;
 }

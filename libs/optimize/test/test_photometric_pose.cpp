@@ -217,6 +217,42 @@ TEST(PhotometricPoseFactor, InvalidOutsideTheImageAndBadInput) {
                pslam::Error);
 }
 
+TEST(PhotometricPoseFactor, FixedSizeTermsEqualTheGenericOnes) {
+  // addTo / squaredResidual (9 x 6 matrices) against what the PoseFactor defaults build from evaluate(), for
+  // valid and invalid factors, robust and not: the same normal equations up to rounding, nothing for an invalid one.
+  const TwoViews s(2);
+  std::mt19937 rng(9);
+  const Eigen::Isometry3d T = perturb(s.T_target, 0.003, 0.01, rng);
+  Eigen::Isometry3d away = s.T_target;
+  away.translation().x() += 10.0;
+  int valid = 0;
+  for (const bool inView : {true, false}) {
+    const Eigen::Isometry3d& pose = inView ? T : away;
+    for (int level : {0, 1})
+      for (double delta : {0.0, s.factors(2)[0]->huberDelta()}) {
+        PoseNormalEquations fixed, generic;
+        for (const auto& f : s.factors(2, level)) {
+          Eigen::VectorXd r;
+          Eigen::MatrixXd J;
+          const bool ok = f->evaluate(pose, r, &J);
+          if (ok) generic.add(r, J, delta);
+          EXPECT_EQ(f->addTo(fixed, pose, delta), ok);
+          double chi2 = -1.0;
+          EXPECT_EQ(f->squaredResidual(pose, chi2), ok);
+          EXPECT_NEAR(chi2, r.squaredNorm(), 1e-12 * (1.0 + r.squaredNorm()));
+          valid += ok ? 1 : 0;
+        }
+        EXPECT_NEAR(fixed.cost, generic.cost, 1e-10 * (1.0 + generic.cost));
+        EXPECT_LE((fixed.H - generic.H).norm(), 1e-10 * (1.0 + generic.H.norm()));
+        EXPECT_LE((fixed.g - generic.g).norm(), 1e-10 * (1.0 + generic.g.norm()));
+        if (!inView) {
+          EXPECT_EQ(fixed.H.norm(), 0.0);  // nothing is valid far away
+        }
+      }
+  }
+  EXPECT_GE(valid, 400);
+}
+
 TEST(PhotometricPoseFactor, TimingOfOneEvaluation) {
   const TwoViews s(1);
   const auto factors = s.factors(1);

@@ -39,13 +39,21 @@ class PhotometricPoseFactor : public PoseFactor {
                 Eigen::MatrixXd* jacobian) const override;
   double huberDelta() const override { return params_.whitenedHuberDelta(); }
   double chi2Threshold() const override { return params_.whitenedChi2Threshold(); }
+  /// evaluate() in fixed-size (9 x 6) matrices: the same terms without the dynamic-size products (pose
+  /// optimization spends most of its time in the direct factors).
+  bool addTo(PoseNormalEquations& eq, const Eigen::Isometry3d& T_cam_world, double huberDelta) const override;
+  bool squaredResidual(const Eigen::Isometry3d& T_cam_world, double& chi2) const override;
 
   /// Unweighted pattern error e (and its validity) at a target pose, for diagnostics and matching accuracy.
   PatternError patternError(const Eigen::Isometry3d& T_target_world) const;
 
  private:
+  using Residual = Eigen::Matrix<double, kPatternSize, 1>;
+  using Jacobian = Eigen::Matrix<double, kPatternSize, 6>;
+  bool evaluateFixed(const Eigen::Isometry3d& T_cam_world, Residual& residual, Jacobian* jacobian) const;
+
   std::shared_ptr<const DirectLandmark> point_;
-  Eigen::Isometry3d T_host_world_;
+  Eigen::Isometry3d T_host_world_, T_world_host_;
   AffineBrightness hostAffine_, targetAffine_;
   std::shared_ptr<const ImagePyramid> target_;
   map::CameraIntrinsics camera_;
