@@ -60,8 +60,11 @@ struct DirectFeaturesParams {
   /// Per-frame affine brightness (a, b) from the tracked points' intensities (median / MAD match). Off by
   /// default: on the synthetic room (constant exposure) the estimate's noise raised the ATE from 0.008 to 0.36 m.
   bool estimateAffine = false;
-  // Matching for new points (optical flow + epipolar check, §3.2.2)
-  int flowWindow = 21;
+  // Matching for new points (optical flow + epipolar check, §3.2.2). An 11 x 11 window: the flow starts at the
+  // position the host's depths predict and runs over 4 pyramid levels, so it needs no wide window to converge; 21
+  // (OpenCV's default) cost 3x as much for no better accuracy over KITTI 00 x 5 BA tolerances, room and corridor
+  // x 3 seeds, jam x 5 seeds (doc/experiments.md, 2026-12-04).
+  int flowWindow = 11;
   int flowLevels = 3;
   double maxEpipolarDistance = 2.0;
   double maxForwardBackward = 1.0;
