@@ -97,7 +97,8 @@ std::vector<DirectPoint> DirectPointSelector::selectWithBlockSize(const cv::Mat&
       const int r = static_cast<int>(std::max_element(m, m + rows) - m);
       const float* row = grad.ptr<float>(by + r);
       int x = x0 + i * W;
-      while (row[x] != m[r]) ++x;
+      const int last = std::min(x + W, x1) - 1;  // bounded: a NaN maximum (bad input) equals no pixel
+      while (x < last && row[x] != m[r]) ++x;
       cells[static_cast<std::size_t>(j) * nx + i] = {m[r], x, by + r};
     }
   }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <limits>
 #include <set>
 
 #include <mrpt/config/CConfigFileMemory.h>
@@ -142,6 +143,27 @@ TEST(DirectPoints, SameBitsAsThePlainGradientAndThePerBlockScan) {
         EXPECT_EQ(got[i].blockLevel, want[i].blockLevel);
       }
     }
+  }
+}
+
+TEST(DirectPoints, NaNGradientsSelectNothingInTheirBlock) {
+  // selectWithBlockSize is public: a gradient image with NaNs (not one gradientMagnitude makes) must neither read
+  // past a block nor select there, and gives what the per-block scan gives. The NaNs sit in the last W block (the
+  // integral image carries them into every block below and to the right).
+  cv::Mat grad = DirectPointSelector::gradientMagnitude(texturedImage(160, 120, 25));
+  const int W = 8;  // usable area [4, 156) x [4, 116): the last block is [148, 156) x [108, 116)
+  grad(cv::Rect(148, 108, 8, 8)).setTo(std::numeric_limits<float>::quiet_NaN());
+  cv::Mat integral;
+  cv::integral(grad, integral, CV_64F);
+  DirectSelectorParams p;
+  const DirectPointSelector sel(p);
+  const auto got = sel.selectWithBlockSize(grad, integral, W);
+  const auto want = perBlockScan(grad, integral, W, p);
+  EXPECT_GT(got.size(), 50u);
+  ASSERT_EQ(got.size(), want.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].pixel, want[i].pixel);
+    EXPECT_FALSE(got[i].pixel.x >= 148 && got[i].pixel.y >= 108) << got[i].pixel;
   }
 }
 
