@@ -13,9 +13,9 @@
 
 #include "pslam/apps/SlamRunApp.h"
 #include "pslam/core/Trajectory.h"
-#include "pslam/eval/Metrics.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam_test/SameStampPairs.h"
+#include "pslam_test/Sim3Ate.h"
 #include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
@@ -63,9 +63,7 @@ Trajectory runSlam(const std::string& name, const std::vector<std::string>& over
 
 // Sim(3) ATE (RMSE) of `est` against the ground truth, over the timestamps of `frames` only.
 double ateOn(const Trajectory& gt, const Trajectory& est, const Trajectory& frames) {
-  const auto [g, e] = test_support::sameStampPairs(gt, test_support::sameStampPairs(frames, est).second);
-  const auto a = eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3);
-  return eval::computeAte(g, eval::applyAlignment(e, a)).stats.rmse;
+  return test_support::ateSim3(gt, test_support::sameStampPairs(frames, est).second);
 }
 
 }  // namespace

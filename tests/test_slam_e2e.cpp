@@ -29,6 +29,7 @@
 #include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
 #include "pslam_test/SameStampPairs.h"
+#include "pslam_test/Sim3Ate.h"
 #include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
@@ -84,12 +85,10 @@ std::string readText(const fs::path& p) {
   return ss.str();
 }
 
-// Sim(3) ATE (RMSE) of an estimate against the ground truth; poses paired by equal timestamps.
+// Sim(3) ATE (RMSE) of an estimate against the ground truth; every estimated pose must have a ground-truth stamp.
 double ateSim3(const Trajectory& gt, const Trajectory& est) {
-  const auto [g, e] = test_support::sameStampPairs(gt, est);
-  EXPECT_EQ(e.size(), est.size());
-  const auto a = eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3);
-  return eval::computeAte(g, eval::applyAlignment(e, a)).stats.rmse;
+  EXPECT_EQ(test_support::sameStampPairs(gt, est).second.size(), est.size());
+  return test_support::ateSim3(gt, est);
 }
 
 }  // namespace

@@ -11,11 +11,10 @@
 
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
-#include "pslam/eval/Metrics.h"
 #include "pslam/priors/NormalPriorsApp.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/system/System.h"
-#include "pslam_test/SameStampPairs.h"
+#include "pslam_test/Sim3Ate.h"
 #include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
@@ -70,9 +69,7 @@ SlamRun runSystem(const fs::path& rawlog, const std::string& config, const std::
 }
 
 double ateSim3(const fs::path& groundTruth, const Trajectory& est) {
-  const auto [g, e] = test_support::sameStampPairs(readTumTrajectory(groundTruth), est);
-  const auto a = eval::alignTrajectories(g, e, eval::AlignmentMode::Sim3);
-  return eval::computeAte(g, eval::applyAlignment(e, a)).stats.rmse;
+  return test_support::ateSim3(readTumTrajectory(groundTruth), est);
 }
 
 }  // namespace
