@@ -571,11 +571,46 @@ TwoViewResult TwoViewInitializer::initialize(const std::vector<cv::Point2f>& poi
   for (std::size_t i = 0; i < checks.size(); ++i) {
     if (i != bestIdx) secondBest = std::max(secondBest, checks[i].numGood);
   }
+  info << "; best of " << candidates.size() << " decompositions: " << checks[bestIdx].numGood
+       << " good points, second " << secondBest;
+
+  // A plane seen by a camera moving parallel to it has a twin decomposition that explains every point on the
+  // plane as well as the true one (a car driving straight over a road: both put the road in front of both
+  // cameras). The matches off the plane (H outliers) satisfy only the true motion's epipolar geometry, so they
+  // decide between the tied decompositions; the winner's points then come from every match.
+  CandidateCheck best = checks[bestIdx];
+  const bool tiedH = useH && !(secondBest < params_.secondBestFractionH * checks[bestIdx].numGood);
+  if (tiedH && params_.minOffPlaneSupportH > 0) {
+    std::vector<bool> offPlane(n);
+    for (std::size_t i = 0; i < n; ++i) offPlane[i] = !h.inliers[i];
+    std::size_t winner = bestIdx;
+    int winnerGood = -1, rivalGood = 0;
+    for (std::size_t i = 0; i < checks.size(); ++i) {
+      if (checks[i].numGood < params_.secondBestFractionH * checks[bestIdx].numGood) continue;  // not tied
+      const auto& [R, t] = candidates[i];
+      const int good = checkCandidate(R, t, x1, x2, offPlane, K, th2).numGood;
+      if (good > winnerGood) {
+        rivalGood = std::max(rivalGood, winnerGood);
+        winnerGood = good;
+        winner = i;
+      } else {
+        rivalGood = std::max(rivalGood, good);
+      }
+    }
+    info << "; tied decompositions, off-plane matches triangulated " << winnerGood << " / " << rivalGood;
+    if (winnerGood >= params_.minOffPlaneSupportH && 2 * rivalGood < winnerGood) {
+      bestIdx = winner;
+      const auto& [R, t] = candidates[bestIdx];
+      best = checkCandidate(R, t, x1, x2, std::vector<bool>(n, true), K, th2);
+      result.twinResolved = true;
+      result.offPlaneGood = winnerGood;
+      result.offPlaneGoodTwin = rivalGood;
+      info << " (resolved: " << best.numGood << " good points)";
+    }
+  }
   Eigen::Matrix3d R21 = candidates[bestIdx].first;
   Eigen::Vector3d t21 = candidates[bestIdx].second;
-  CandidateCheck best = checks[bestIdx];
-  info << "; best of " << candidates.size() << " decompositions: " << best.numGood << " good points, second "
-       << secondBest << ", parallax " << best.parallaxDeg << " deg";
+  info << ", parallax " << best.parallaxDeg << " deg";
 
   // Refine the best F-based solution before judging it: the acceptance rules count points that
   // re-project within 2 sigma, which a linear estimate misses at 0.5-1 px noise. Two rounds, because the
@@ -612,7 +647,7 @@ TwoViewResult TwoViewInitializer::initialize(const std::vector<cv::Point2f>& poi
   if (best.parallaxDeg < params_.minParallaxDeg) return fail(TwoViewFailure::LowParallax, info.str());
   if (best.numGood < minGood) return fail(TwoViewFailure::TooFewTriangulated, info.str() + ", need " + std::to_string(minGood));
   if (useH) {
-    if (!(secondBest < params_.secondBestFractionH * best.numGood)) return fail(TwoViewFailure::Ambiguous, info.str());
+    if (tiedH && !result.twinResolved) return fail(TwoViewFailure::Ambiguous, info.str());
   } else {
     int similar = 1;  // the best itself
     for (std::size_t i = 0; i < checks.size(); ++i) {

@@ -226,6 +226,83 @@ TEST(TwoViewInitializer, AcceptanceRulesReportTheirReasons) {
   EXPECT_GT(h.secondBestGood, 0.1 * h.bestGood);
 }
 
+namespace {
+
+/// A car's camera 1.5 m above a road (y down, z forward) driving 1 m straight on, with a 0.5 deg yaw: the
+/// road points lie on the plane y = 1.5, which the motion runs parallel to. `numOffPlane` points on two
+/// roadside walls (x = -/+ 4 m, 0-3 m high) do not.
+TwoViewScene makeRoadScene(int numRoad, int numOffPlane, double noisePx, unsigned seed) {
+  const PinholeCamera cam = testCamera();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, noisePx);
+  TwoViewScene s;
+  s.R_cur_ref = rotationFromAxisAngle({0.0, 1.0, 0.0}, 0.5);
+  s.t_cur_ref = Eigen::Vector3d(0.0, 0.0, -1.0);
+  int road = 0, off = 0;
+  while (road < numRoad || off < numOffPlane) {
+    const bool onRoad = road < numRoad;
+    Eigen::Vector3d X;
+    if (onRoad) {
+      X = Eigen::Vector3d(-6.0 + 12.0 * u01(rng), 1.5, 4.0 + 26.0 * u01(rng));
+    } else {
+      X = Eigen::Vector3d(u01(rng) < 0.5 ? -4.0 : 4.0, 1.5 - 3.0 * u01(rng), 4.0 + 26.0 * u01(rng));
+    }
+    const Eigen::Vector3d Xc = s.R_cur_ref * X + s.t_cur_ref;
+    if (Xc.z() <= 0.5) continue;
+    const Eigen::Vector2d p1 = cam.project(X), p2 = cam.project(Xc);
+    auto inside = [&](const Eigen::Vector2d& p) { return p.x() >= 0 && p.y() >= 0 && p.x() < cam.width && p.y() < cam.height; };
+    if (!inside(p1) || !inside(p2)) continue;
+    (onRoad ? road : off)++;
+    s.points_ref.push_back(X);
+    s.isOutlier.push_back(false);
+    s.pixels_ref.emplace_back(static_cast<float>(p1.x() + noise(rng)), static_cast<float>(p1.y() + noise(rng)));
+    s.pixels_cur.emplace_back(static_cast<float>(p2.x() + noise(rng)), static_cast<float>(p2.y() + noise(rng)));
+  }
+  return s;
+}
+
+}  // namespace
+
+TEST(TwoViewInitializer, RoadPlaneTwinIsResolvedByTheMatchesOffThePlane) {
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    std::mt19937 rng(seed);
+    // Road points alone: the true motion and the plane's twin explain every match, nothing can tell them apart.
+    const TwoViewScene roadOnly = makeRoadScene(300, 0, 0.5, seed);
+    const TwoViewResult r0 = TwoViewInitializer(testCamera()).initialize(roadOnly.pixels_ref, roadOnly.pixels_cur, rng);
+    EXPECT_EQ(r0.failure, TwoViewFailure::Ambiguous) << "seed " << seed << ": " << r0.message;
+
+    // With some roadside points the homography still wins the model selection and the tie remains on its
+    // inliers; ORB-SLAM's rule (minOffPlaneSupportH = 0) skips the frame, the off-plane matches resolve it.
+    const TwoViewScene s = makeRoadScene(300, 60, 0.5, seed);
+    TwoViewParams orbSlam;
+    orbSlam.minOffPlaneSupportH = 0;
+    rng.seed(seed);
+    const TwoViewResult skipped = TwoViewInitializer(testCamera(), orbSlam).initialize(s.pixels_ref, s.pixels_cur, rng);
+    EXPECT_EQ(skipped.model, TwoViewModel::Homography) << skipped.message;
+    EXPECT_EQ(skipped.failure, TwoViewFailure::Ambiguous) << "seed " << seed << ": " << skipped.message;
+
+    rng.seed(seed);
+    const TwoViewResult r = TwoViewInitializer(testCamera()).initialize(s.pixels_ref, s.pixels_cur, rng);
+    ASSERT_TRUE(r.success) << "seed " << seed << ": " << toString(r.failure) << ": " << r.message;
+    EXPECT_EQ(r.model, TwoViewModel::Homography);
+    EXPECT_TRUE(r.twinResolved) << r.message;
+    EXPECT_GE(r.offPlaneGood, 10) << r.message;
+    EXPECT_LT(2 * r.offPlaneGoodTwin, r.offPlaneGood) << r.message;
+    const Accuracy a = accuracyOf(s, r);
+    EXPECT_LT(a.rotDeg, 0.5) << r.message;
+    EXPECT_LT(a.dirDeg, 2.0) << r.message;
+    EXPECT_LT(a.pointRelError, 0.05) << r.message;
+    // The roadside points are part of the reconstruction.
+    int offTriangulated = 0;
+    for (std::size_t i = 0; i < s.points_ref.size(); ++i)
+      if (r.triangulated[i] && std::abs(s.points_ref[i].y() - 1.5) > 1e-9) ++offTriangulated;
+    EXPECT_GE(offTriangulated, 20) << r.message;
+    std::cout << "[ road seed " << seed << " ] rot " << a.rotDeg << " deg, dir " << a.dirDeg << " deg, "
+              << r.message << "\n";
+  }
+}
+
 TEST(TwoViewBuildingBlocks, EstimatorsAreExactOnNoiselessData) {
   const TwoViewScene g = makeScene(SceneShape::General, kR, kT, 30, 0.0, 0.0, 21);
   const auto x1 = toEigen(g.pixels_ref), x2 = toEigen(g.pixels_cur);

@@ -41,6 +41,11 @@ struct TwoViewParams {
   double minTriangulatedFraction = 0.9;
   double similarSolutionFractionF = 0.7;
   double secondBestFractionH = 0.75;
+  /// A homography whose best decomposition ties with another (the plane's twin: for a camera moving parallel
+  /// to a plane, (R, t, n) and its twin explain every point on the plane) is resolved by the matches off the
+  /// plane: they satisfy only the true motion's epipolar geometry. The winner needs at least this many of them
+  /// triangulated and more than twice as many as each tied decomposition. 0 = ORB-SLAM (the frame is skipped).
+  int minOffPlaneSupportH = 10;
   bool parallel = true;
   /// Least-squares refits of the best model on its inliers (each kept only if the score rises).
   /// 0 = ORB-SLAM's behaviour (pose from the best 8-point hypothesis).
@@ -62,6 +67,8 @@ struct TwoViewParams {
                 "F: another solution with more than this * best good points is ambiguous (ORB-SLAM 0.7)");
     PSLAM_FIELD(v, secondBestFractionH, inLeftOpen(0, 1),
                 "H: the second best solution must have fewer than this * best good points (ORB-SLAM 0.75)");
+    PSLAM_FIELD(v, minOffPlaneSupportH, atLeast(0),
+                "H: a tied (plane twin) decomposition is resolved by >= this many off-plane matches; 0 = ORB-SLAM");
     PSLAM_FIELD(v, parallel, anyValue, "run H and F RANSAC as two std::async tasks");
     PSLAM_FIELD(v, refitIterations, atLeast(0), "least-squares refits of the best model; 0 = ORB-SLAM");
     PSLAM_FIELD(v, refinePose, anyValue, "refine an F-based (R, t) on the robust Sampson error; false = ORB-SLAM");
@@ -108,6 +115,10 @@ struct TwoViewResult {
   double parallaxDeg = 0.0;                 ///< parallax of the accepted (or best) decomposition
   int numTriangulated = 0;
   bool refined = false;                     ///< the Sampson refinement was applied
+  /// An H decomposition tie (the plane's twin) was resolved by the matches off the plane; the counts of off-plane
+  /// matches the accepted and the best other tied decomposition triangulated.
+  bool twinResolved = false;
+  int offPlaneGood = 0, offPlaneGoodTwin = 0;
 
   /// T_cur_ref as an MRPT pose (maps reference-camera points into the current camera).
   mrpt::poses::CPose3D poseCurRef() const;
