@@ -30,8 +30,6 @@ const fs::path& tempRoot() {
   return root.path;
 }
 
-// The first 130 frames of jam seed 2: the approach (the semantic model initializes at frame 52, from static points
-// only) and the start of the stand-still (from frame ~85), where the heuristic follows the queue.
 fs::path renderJam(int seed, int frames) {
   synth::SynthOptions o;
   o.scenario = "jam";
@@ -43,6 +41,8 @@ fs::path renderJam(int seed, int frames) {
   return synth::SynthApp(o).run().rawlog;
 }
 
+// The first 130 frames of jam seed 2: the approach (the semantic model initializes at frame 52, from static points
+// only) and the start of the stand-still (from frame ~85), where the heuristic follows the queue.
 const fs::path& jamRawlog() {
   static const fs::path rawlog = renderJam(2, 130);
   return rawlog;

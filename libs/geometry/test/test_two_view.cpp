@@ -251,7 +251,9 @@ TwoViewScene makeRoadScene(int numRoad, int numOffPlane, double noisePx, unsigne
     const Eigen::Vector3d Xc = s.R_cur_ref * X + s.t_cur_ref;
     if (Xc.z() <= 0.5) continue;
     const Eigen::Vector2d p1 = cam.project(X), p2 = cam.project(Xc);
-    auto inside = [&](const Eigen::Vector2d& p) { return p.x() >= 0 && p.y() >= 0 && p.x() < cam.width && p.y() < cam.height; };
+    auto inside = [&](const Eigen::Vector2d& p) {
+      return p.x() >= 0 && p.y() >= 0 && p.x() < cam.width && p.y() < cam.height;
+    };
     if (!inside(p1) || !inside(p2)) continue;
     (onRoad ? road : off)++;
     s.points_ref.push_back(X);
@@ -269,7 +271,8 @@ TEST(TwoViewInitializer, RoadPlaneTwinIsResolvedByTheMatchesOffThePlane) {
     std::mt19937 rng(seed);
     // Road points alone: the true motion and the plane's twin explain every match, nothing can tell them apart.
     const TwoViewScene roadOnly = makeRoadScene(300, 0, 0.5, seed);
-    const TwoViewResult r0 = TwoViewInitializer(testCamera()).initialize(roadOnly.pixels_ref, roadOnly.pixels_cur, rng);
+    const TwoViewResult r0 =
+        TwoViewInitializer(testCamera()).initialize(roadOnly.pixels_ref, roadOnly.pixels_cur, rng);
     EXPECT_EQ(r0.failure, TwoViewFailure::Ambiguous) << "seed " << seed << ": " << r0.message;
 
     // With some roadside points the homography still wins the model selection and the tie remains on its
@@ -278,7 +281,8 @@ TEST(TwoViewInitializer, RoadPlaneTwinIsResolvedByTheMatchesOffThePlane) {
     TwoViewParams orbSlam;
     orbSlam.minOffPlaneSupportH = 0;
     rng.seed(seed);
-    const TwoViewResult skipped = TwoViewInitializer(testCamera(), orbSlam).initialize(s.pixels_ref, s.pixels_cur, rng);
+    const TwoViewResult skipped =
+        TwoViewInitializer(testCamera(), orbSlam).initialize(s.pixels_ref, s.pixels_cur, rng);
     EXPECT_EQ(skipped.model, TwoViewModel::Homography) << skipped.message;
     EXPECT_EQ(skipped.failure, TwoViewFailure::Ambiguous) << "seed " << seed << ": " << skipped.message;
 
