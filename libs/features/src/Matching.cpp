@@ -69,6 +69,7 @@ void InitMatchParams::check() const {
   require(maxDistance >= 0 && maxDistance <= 256, ctx, "maxDistance must be in [0, 256]");
   require(windowHalfSize > 0, ctx, "windowHalfSize must be > 0");
   require(histogramBins >= 3, ctx, "histogramBins must be >= 3");
+  require(octaveSlack >= 0, ctx, "octaveSlack must be >= 0");
 }
 
 void BruteForceParams::check() const {
@@ -125,7 +126,7 @@ std::vector<IndexMatch> matchForInitialization(const std::vector<cv::KeyPoint>& 
     const int octave = kps1[i1].octave;
     if (octave > params.maxOctave1) continue;
     const auto candidates = grid2.featuresInWindow(prevMatched[i1].x, prevMatched[i1].y, params.windowHalfSize,
-                                                   OctaveRange::only(octave));
+                                                   OctaveRange{octave - params.octaveSlack, octave + params.octaveSlack});
     int best = INT_MAX, second = INT_MAX, bestI2 = -1;
     const uint8_t* d1 = desc1.ptr<uint8_t>(i1);
     for (size_t c : candidates) {

@@ -137,6 +137,47 @@ TEST(MatchForInitialization, FindsTrueCorrespondencesUnderShiftAndRotation) {
   }
 }
 
+TEST(MatchForInitialization, OctaveSlackKeepsMatchesAcrossAScaleChange) {
+  // A camera driving forward sees the scene grow: at 1.3x about the centre, many level-0 corners of frame 1 are
+  // found one level up in frame 2, where the same-level search (ORB-SLAM) cannot see them.
+  const cv::Mat img1 = texturedImage(640, 480, 33);
+  OrbExtractor ex;
+  std::vector<cv::KeyPoint> k1, k2;
+  cv::Mat d1, d2;
+  ex.extract(img1, k1, d1);
+  const cv::Mat M = cv::getRotationMatrix2D(cv::Point2f(320, 240), 0.0, 1.3);
+  cv::Mat img2;
+  cv::warpAffine(img1, img2, M, img1.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(128));
+  ex.extract(img2, k2, d2);
+  const auto grid2 = FeatureGrid::fromKeypoints(k2, cv::Rect2f(0, 0, 640, 480));
+  auto run = [&](int slack, int& correct, int& crossLevel) {
+    std::vector<cv::Point2f> prev(k1.size());
+    for (size_t i = 0; i < k1.size(); ++i) prev[i] = apply(M, k1[i].pt);  // a known motion, as after tracking
+    InitMatchParams p;
+    p.octaveSlack = slack;
+    const auto matches = matchForInitialization(k1, d1, k2, d2, grid2, prev, p);
+    correct = crossLevel = 0;
+    for (const auto& m : matches) {
+      EXPECT_LE(std::abs(k2[m.i2].octave - k1[m.i1].octave), slack);
+      crossLevel += k2[m.i2].octave != k1[m.i1].octave;
+      correct += cv::norm(apply(M, k1[m.i1].pt) - k2[m.i2].pt) < 5.0;
+    }
+    return static_cast<int>(matches.size());
+  };
+  int correct0 = 0, cross0 = 0, correct1 = 0, cross1 = 0;
+  const int n0 = run(0, correct0, cross0);
+  const int n1 = run(1, correct1, cross1);
+  std::cout << "1.3x zoom: same level " << n0 << " matches (" << correct0 << " correct), +-1 level " << n1 << " ("
+            << correct1 << " correct, " << cross1 << " across levels)\n";
+  EXPECT_EQ(cross0, 0);
+  EXPECT_GT(cross1, 0);
+  EXPECT_GT(correct1, correct0);
+  EXPECT_GE(correct1, 0.9 * n1);
+  InitMatchParams bad;
+  bad.octaveSlack = -1;
+  EXPECT_THROW(bad.check(), pslam::Error);
+}
+
 TEST(MatchForInitialization, RotationHistogramRemovesInconsistentAngles) {
   const cv::Mat img = texturedImage(640, 480, 32);
   OrbExtractor ex;

@@ -133,6 +133,7 @@ InitializationOutcome MonocularInitializer::process(Frame& current, map::Map& ma
   mp.windowHalfSize = params_.windowHalfSize;
   mp.nnRatio = params_.nnRatio;
   mp.maxOctave1 = params_.maxOctave;
+  mp.octaveSlack = params_.octaveSlack;
   std::vector<cv::Point2f> prevMatched = prevMatched_;
   auto matches = features::matchForInitialization(reference_->keypoints, reference_->descriptors,
                                                   current.keypoints, current.descriptors, current.grid,

@@ -49,14 +49,16 @@ struct InitMatchParams {
   int maxDistance = kOrbThLow;   ///< accept only if best <= maxDistance
   float windowHalfSize = 100.f;  ///< square search window around the previous matched position (px)
   int maxOctave1 = 0;            ///< frame-1 keypoints above this octave are skipped (ORB-SLAM: only level 0)
+  int octaveSlack = 0;           ///< frame-2 candidates within +-this many octaves of the frame-1 one (ORB-SLAM: 0)
   bool checkOrientation = true;  ///< rotation-histogram consistency
   int histogramBins = 30;        ///< bins over 360 deg of angle differences; the 3 largest bins are kept
   void check() const;
 };
 
 /// ORB-SLAM's SearchForInitialization between a reference frame (1) and the current frame (2).
-/// For every frame-1 keypoint of octave <= maxOctave1, candidates are frame-2 keypoints of the SAME octave in a
-/// window of half size windowHalfSize around prevMatched[i1] (found via grid2, built over kps2). The best
+/// For every frame-1 keypoint of octave <= maxOctave1, candidates are frame-2 keypoints of the SAME octave (+-
+/// octaveSlack; ORB-SLAM: 0) in a window of half size windowHalfSize around prevMatched[i1] (found via grid2, built
+/// over kps2). The best
 /// candidate must pass maxDistance and the nnRatio test; a frame-2 keypoint keeps only its best frame-1 match.
 /// With checkOrientation, matches whose angle difference falls outside the three most populated histogram bins
 /// (bins 2/3 dropped when below 10 % of the largest) are removed. On return prevMatched[i1] holds the position

@@ -67,6 +67,7 @@ struct InitializerParams {
   float nnRatio = 0.9f;
   /// Reference keypoints above this pyramid level are not matched (ORB-SLAM: 0, only the finest level).
   int maxOctave = 0;
+  int octaveSlack = 0;
   /// ORB-SLAM2 (monocular) extracts featureFactor x nFeatures keypoints while initializing: only level-0
   /// keypoints take part in SearchForInitialization, and enough matches are needed to keep a reference frame
   /// long enough for parallax to build up.
@@ -87,6 +88,7 @@ struct InitializerParams {
     PSLAM_FIELD(v, windowHalfSize, greaterThan(0), "SearchForInitialization window (px)");
     PSLAM_FIELD(v, nnRatio, inLeftOpen(0, 1), "SearchForInitialization ratio");
     PSLAM_FIELD(v, maxOctave, inClosed(0, 31), "reference keypoints of levels 0..this are matched (ORB-SLAM: 0)");
+    PSLAM_FIELD(v, octaveSlack, inClosed(0, 31), "current keypoints within +-this many levels are candidates (ORB-SLAM: 0)");
     PSLAM_FIELD(v, featureFactor, inClosed(1, 10), "keypoints extracted while initializing = this x nFeatures");
     PSLAM_FIELD(v, minStaticProbability, inClosed(0, 1),
                 "with SEMANTIC: only keypoints with P(static) >= this initialize the map (§3.4.1: 0.8); 0 = all");
