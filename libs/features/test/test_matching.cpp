@@ -32,6 +32,16 @@ cv::Point2f apply(const cv::Mat& M, cv::Point2f p) {
           static_cast<float>(M.at<double>(1, 0) * p.x + M.at<double>(1, 1) * p.y + M.at<double>(1, 2))};
 }
 
+/// Frame 2 = frame 1 warped by the affine M (border grey 128): its ORB keypoints, descriptors and grid.
+FeatureGrid extractWarped(OrbExtractor& ex, const cv::Mat& img1, const cv::Mat& M, std::vector<cv::KeyPoint>& k2,
+                          cv::Mat& d2) {
+  cv::Mat img2;
+  cv::warpAffine(img1, img2, M, img1.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(128));
+  ex.extract(img2, k2, d2);
+  return FeatureGrid::fromKeypoints(k2, cv::Rect2f(0, 0, static_cast<float>(img1.cols),
+                                                  static_cast<float>(img1.rows)));
+}
+
 }  // namespace
 
 TEST(Hamming, EqualsBitCountingAndOpenCv) {
@@ -106,10 +116,7 @@ TEST(MatchForInitialization, FindsTrueCorrespondencesUnderShiftAndRotation) {
     cv::Mat M = cv::getRotationMatrix2D(centre, c.angleDeg, 1.0);
     M.at<double>(0, 2) += c.tx;
     M.at<double>(1, 2) += c.ty;
-    cv::Mat img2;
-    cv::warpAffine(img1, img2, M, img1.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(128));
-    ex.extract(img2, k2, d2);
-    const auto grid2 = FeatureGrid::fromKeypoints(k2, cv::Rect2f(0, 0, 640, 480));
+    const FeatureGrid grid2 = extractWarped(ex, img1, M, k2, d2);
     std::vector<cv::Point2f> prev(k1.size());
     for (size_t i = 0; i < k1.size(); ++i) prev[i] = k1[i].pt;
 
@@ -146,10 +153,7 @@ TEST(MatchForInitialization, OctaveSlackKeepsMatchesAcrossAScaleChange) {
   cv::Mat d1, d2;
   ex.extract(img1, k1, d1);
   const cv::Mat M = cv::getRotationMatrix2D(cv::Point2f(320, 240), 0.0, 1.3);
-  cv::Mat img2;
-  cv::warpAffine(img1, img2, M, img1.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(128));
-  ex.extract(img2, k2, d2);
-  const auto grid2 = FeatureGrid::fromKeypoints(k2, cv::Rect2f(0, 0, 640, 480));
+  const FeatureGrid grid2 = extractWarped(ex, img1, M, k2, d2);
   auto run = [&](int slack, int& correct, int& crossLevel) {
     std::vector<cv::Point2f> prev(k1.size());
     for (size_t i = 0; i < k1.size(); ++i) prev[i] = apply(M, k1[i].pt);  // a known motion, as after tracking

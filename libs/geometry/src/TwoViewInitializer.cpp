@@ -581,18 +581,22 @@ TwoViewResult TwoViewInitializer::initialize(const std::vector<cv::Point2f>& poi
   CandidateCheck best = checks[bestIdx];
   const bool tiedH = useH && !(secondBest < params_.secondBestFractionH * checks[bestIdx].numGood);
   if (tiedH && params_.minOffPlaneSupportH > 0) {
-    std::vector<bool> offPlane(n);
-    for (std::size_t i = 0; i < n; ++i) offPlane[i] = !h.inliers[i];
+    // Each match is judged on its own, so a check over every match counts the H inliers exactly as `checks` did
+    // and the off-plane matches on top of them.
+    const std::vector<bool> everyMatch(n, true);
     std::size_t winner = bestIdx;
     int winnerGood = -1, rivalGood = 0;
+    CandidateCheck winnerCheck;
     for (std::size_t i = 0; i < checks.size(); ++i) {
       if (checks[i].numGood < params_.secondBestFractionH * checks[bestIdx].numGood) continue;  // not tied
       const auto& [R, t] = candidates[i];
-      const int good = checkCandidate(R, t, x1, x2, offPlane, K, th2).numGood;
+      CandidateCheck all = checkCandidate(R, t, x1, x2, everyMatch, K, th2);
+      const int good = all.numGood - checks[i].numGood;  // off-plane matches triangulated
       if (good > winnerGood) {
         rivalGood = std::max(rivalGood, winnerGood);
         winnerGood = good;
         winner = i;
+        winnerCheck = std::move(all);
       } else {
         rivalGood = std::max(rivalGood, good);
       }
@@ -600,8 +604,7 @@ TwoViewResult TwoViewInitializer::initialize(const std::vector<cv::Point2f>& poi
     info << "; tied decompositions, off-plane matches triangulated " << winnerGood << " / " << rivalGood;
     if (winnerGood >= params_.minOffPlaneSupportH && 2 * rivalGood < winnerGood) {
       bestIdx = winner;
-      const auto& [R, t] = candidates[bestIdx];
-      best = checkCandidate(R, t, x1, x2, std::vector<bool>(n, true), K, th2);
+      best = std::move(winnerCheck);
       result.twinResolved = true;
       result.offPlaneGood = winnerGood;
       result.offPlaneGoodTwin = rivalGood;
