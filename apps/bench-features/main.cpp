@@ -27,6 +27,9 @@ int main(int argc, char** argv) {
   app.add_option("--scale-factor", o.orb.scaleFactor, "pyramid scale factor")
       ->check(orbKey("scaleFactor"))
       ->capture_default_str();
+  app.add_option("--threads", o.orb.threads, "threads sharing out the pyramid levels")
+      ->check(orbKey("threads"))
+      ->capture_default_str();
   app.add_flag("--literal-cell-fast", o.orb.literalCellFast, "ORB-SLAM's one FAST call per cell (reference)");
   app.add_option("--direct", o.directPoints, "also time DSO-style direct point selection with this target (0 = off)")
       ->check(cliCheck<int>(pslam::params::atLeast(0)))

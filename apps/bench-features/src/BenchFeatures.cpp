@@ -150,11 +150,13 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
       result.timings.add("fast+quadtree_cpu", t.detectCpuMs);
       result.timings.add("orientation_cpu", t.orientationCpuMs);
       result.timings.add("descriptors_cpu", t.descriptorCpuMs);
+      result.timings.add("levels_cpu", t.levelsCpuMs);
       result.timings.add("total_cpu", t.totalCpuMs());
       result.timings.add("pyramid", t.pyramidMs);
       result.timings.add("fast+quadtree", t.detectMs);
       result.timings.add("orientation", t.orientationMs);
       result.timings.add("descriptors", t.descriptorMs);
+      result.timings.add("levels", t.levelsMs);
       result.timings.add("total", t.totalMs());
       nOurs += kps.size();
       ++nTimed;
@@ -168,11 +170,13 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   char line[256];
   out << "bench-features: " << files.size() << " image(s) from " << options_.input.string() << " ("
       << first.cols << "x" << first.rows << " first), " << options_.runs << " runs each, nFeatures "
-      << p.nFeatures << "\n";
+      << p.nFeatures << ", " << p.threads << " thread(s) for the levels\n"
+      << "(fast+quadtree, orientation, descriptors: the work summed over the levels; levels: their wall time)\n";
   std::snprintf(line, sizeof line, "%-18s %10s %10s %10s\n", "stage", "median_ms", "p90_ms", "min_ms");
   out << line;
-  for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "total", "pyramid_cpu",
-                            "fast+quadtree_cpu", "orientation_cpu", "descriptors_cpu", "total_cpu", "opencv_orb",
+  for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "levels", "total",
+                            "pyramid_cpu", "fast+quadtree_cpu", "orientation_cpu", "descriptors_cpu", "levels_cpu",
+                            "total_cpu", "opencv_orb",
                             "opencv_orb_cpu", "direct_points", "direct_points_cpu"}) {
     const auto it = result.timings.samples().find(stage);
     if (it == result.timings.samples().end()) continue;

@@ -35,10 +35,17 @@ TEST(BenchFeatures, PrintsStagesAndWritesJson) {
   o.directPoints = 500;
   std::ostringstream out;
   const auto r = BenchFeaturesApp(o).run(out);
-  for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "total", "opencv_orb"}) {
+  for (const char* stage :
+       {"pyramid", "fast+quadtree", "orientation", "descriptors", "levels", "total", "levels_cpu", "opencv_orb"}) {
     EXPECT_NE(out.str().find(stage), std::string::npos) << stage;
     ASSERT_EQ(r.timings.samples().at(stage).size(), 4u) << stage;  // 2 images x 2 runs
   }
+  // The total is the pyramid plus the levels' wall time, not the sum of the per-level stages (which overlap on
+  // the level threads).
+  const auto& samples = r.timings.samples();
+  for (size_t i = 0; i < 4; ++i)
+    EXPECT_NEAR(samples.at("total")[i], samples.at("pyramid")[i] + samples.at("levels")[i], 1e-9);
+  EXPECT_NE(out.str().find("2 thread(s) for the levels"), std::string::npos) << out.str();
   EXPECT_EQ(r.timings.samples().at("direct_points").size(), 4u);
   EXPECT_GT(r.meanDirectPoints, 0);
   EXPECT_EQ(r.images.size(), 2u);

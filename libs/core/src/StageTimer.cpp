@@ -14,6 +14,12 @@ double processCpuMs() {
   return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
 
+double threadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
 void StageTimings::add(const std::string& stage, double ms) { samples_[stage].push_back(ms); }
 
 double percentile(std::vector<double> v, double p) {

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <exception>
+#include <thread>
 
 #include <opencv2/imgproc.hpp>
 
@@ -88,9 +91,18 @@ OrbExtractor::OrbExtractor(const OrbParams& params) : params_(params) {
   }
 
   // Only OpenCV's descriptor code is used: one level, our keypoints (with our angles) on our padded level image.
-  describer_ = cv::ORB::create(params_.nFeatures, 1.2f, 1, params_.edgeThreshold, 0, 2, cv::ORB::HARRIS_SCORE,
-                               params_.patchSize, params_.iniThFAST);
+  const int workers = std::min(params_.threads, L);
+  for (int w = 0; w < workers; ++w)
+    describers_.push_back(cv::ORB::create(params_.nFeatures, 1.2f, 1, params_.edgeThreshold, 0, 2,
+                                          cv::ORB::HARRIS_SCORE, params_.patchSize, params_.iniThFAST));
 }
+
+struct OrbExtractor::LevelOutput {
+  std::vector<cv::KeyPoint> keypoints;  ///< level-0 pixel coordinates
+  cv::Mat descriptors;
+  double detectMs = 0, orientationMs = 0, descriptorMs = 0;
+  double detectCpuMs = 0, orientationCpuMs = 0, descriptorCpuMs = 0;
+};
 
 void OrbExtractor::buildPyramid(const cv::Mat& grey) {
   const int E = params_.edgeThreshold;
@@ -298,6 +310,59 @@ float OrbExtractor::intensityCentroidAngle(const cv::Mat& image, cv::Point2f pt)
   return cv::fastAtan2(static_cast<float>(m01), static_cast<float>(m10));  // eq. 2.14, degrees
 }
 
+void OrbExtractor::processLevel(int l, cv::ORB& describer, LevelOutput& out) const {
+  auto start = Clock::now();
+  double cpu = threadCpuMs();
+  std::vector<cv::KeyPoint> kps;
+  detectLevel(l, kps);
+  out.detectMs = msSince(start);
+  out.detectCpuMs = threadCpuMs() - cpu;
+
+  start = Clock::now();
+  cpu = threadCpuMs();
+  for (cv::KeyPoint& kp : kps) kp.angle = intensityCentroidAngle(pyramid_[l], kp.pt);
+  out.orientationMs = msSince(start);
+  out.orientationCpuMs = threadCpuMs() - cpu;
+
+  start = Clock::now();
+  cpu = threadCpuMs();
+  out.keypoints.clear();
+  out.descriptors.release();
+  if (!kps.empty()) {
+    // OpenCV's ORB blurs the image (7x7 Gaussian, sigma 2) and evaluates the steered pattern at each keypoint
+    // with the keypoint's own angle; we hand it the padded level so that no keypoint is dropped at the border.
+    const int E = params_.edgeThreshold;
+    std::vector<cv::KeyPoint> inPadded = kps;
+    for (cv::KeyPoint& kp : inPadded) {
+      kp.pt.x += E;
+      kp.pt.y += E;
+      kp.octave = 0;
+    }
+    describer.compute(padded_[l], inPadded, out.descriptors);
+    // OpenCV must have used exactly our keypoints, in order, with our angles (it would otherwise silently drop
+    // border keypoints or reorder them); cheap to verify, fatal if violated.
+    bool same = inPadded.size() == kps.size() && out.descriptors.rows == static_cast<int>(kps.size()) &&
+                out.descriptors.cols == 32 && out.descriptors.type() == CV_8UC1;
+    for (size_t i = 0; same && i < inPadded.size(); ++i)
+      same = inPadded[i].angle == kps[i].angle && inPadded[i].pt.x == kps[i].pt.x + E &&
+             inPadded[i].pt.y == kps[i].pt.y + E;
+    if (!same) throw Error("OrbExtractor::extract: OpenCV ORB changed the keypoints of level " + std::to_string(l));
+    const float sx = static_cast<float>(pyramid_[0].cols) / static_cast<float>(pyramid_[l].cols);
+    const float sy = static_cast<float>(pyramid_[0].rows) / static_cast<float>(pyramid_[l].rows);
+    out.keypoints = std::move(kps);
+    for (cv::KeyPoint& kp : out.keypoints) {
+      if (params_.exactLevelCoordinates && l > 0) {
+        kp.pt.x = toOriginalPixel(kp.pt.x, sx);
+        kp.pt.y = toOriginalPixel(kp.pt.y, sy);
+      } else {
+        kp.pt *= scale_[l];
+      }
+    }
+  }
+  out.descriptorMs = msSince(start);
+  out.descriptorCpuMs = threadCpuMs() - cpu;
+}
+
 void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
                            OrbStageTimes* times) {
   require(!image.empty(), "OrbExtractor::extract", "empty image");
@@ -321,68 +386,60 @@ void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keyp
   t.pyramidMs = msSince(start);
   t.pyramidCpuMs = processCpuMs() - cpu;
 
+  // The levels are independent once the pyramid is built: the workers take them in order, largest first (a
+  // level's cost falls with its area), each into its own slot, so any number of threads gives the same output.
   const int L = params_.nLevels;
-  std::vector<std::vector<cv::KeyPoint>> perLevel(L);
+  std::vector<LevelOutput> levels(L);
+  std::atomic<int> nextLevel{0};
+  auto work = [&](cv::ORB& describer) {
+    for (int l = nextLevel++; l < L; l = nextLevel++) processLevel(l, describer, levels[l]);
+  };
   start = Clock::now();
   cpu = processCpuMs();
-  for (int l = 0; l < L; ++l) detectLevel(l, perLevel[l]);
-  t.detectMs = msSince(start);
-  t.detectCpuMs = processCpuMs() - cpu;
+  const int workers = static_cast<int>(describers_.size());
+  std::vector<std::exception_ptr> failures(workers);
+  std::vector<std::thread> pool;
+  for (int w = 1; w < workers; ++w)
+    pool.emplace_back([&, w] {
+      try {
+        work(*describers_[w]);
+      } catch (...) {
+        failures[w] = std::current_exception();
+        nextLevel = L;  // the others stop after their current level
+      }
+    });
+  try {
+    work(*describers_[0]);
+  } catch (...) {
+    failures[0] = std::current_exception();
+    nextLevel = L;
+  }
+  for (std::thread& th : pool) th.join();
+  for (const std::exception_ptr& f : failures)
+    if (f) std::rethrow_exception(f);
+  t.levelsMs = msSince(start);
+  t.levelsCpuMs = processCpuMs() - cpu;
 
-  start = Clock::now();
-  cpu = processCpuMs();
-  for (int l = 0; l < L; ++l)
-    for (cv::KeyPoint& kp : perLevel[l]) kp.angle = intensityCentroidAngle(pyramid_[l], kp.pt);
-  t.orientationMs = msSince(start);
-  t.orientationCpuMs = processCpuMs() - cpu;
-
-  start = Clock::now();
-  cpu = processCpuMs();
   size_t total = 0;
-  for (const auto& v : perLevel) total += v.size();
+  for (const LevelOutput& lo : levels) {
+    total += lo.keypoints.size();
+    t.detectMs += lo.detectMs;
+    t.orientationMs += lo.orientationMs;
+    t.descriptorMs += lo.descriptorMs;
+    t.detectCpuMs += lo.detectCpuMs;
+    t.orientationCpuMs += lo.orientationCpuMs;
+    t.descriptorCpuMs += lo.descriptorCpuMs;
+  }
   keypoints.clear();
   keypoints.reserve(total);
   descriptors.create(static_cast<int>(total), 32, CV_8UC1);
-  const int E = params_.edgeThreshold;
   int row = 0;
-  std::vector<cv::KeyPoint> inPadded;
-  cv::Mat levelDesc;
-  for (int l = 0; l < L; ++l) {
-    if (perLevel[l].empty()) continue;
-    // OpenCV's ORB blurs the image (7x7 Gaussian, sigma 2) and evaluates the steered pattern at each keypoint
-    // with the keypoint's own angle; we hand it the padded level so that no keypoint is dropped at the border.
-    inPadded = perLevel[l];
-    for (cv::KeyPoint& kp : inPadded) {
-      kp.pt.x += E;
-      kp.pt.y += E;
-      kp.octave = 0;
-    }
-    describer_->compute(padded_[l], inPadded, levelDesc);
-    // OpenCV must have used exactly our keypoints, in order, with our angles (it would otherwise silently drop
-    // border keypoints or reorder them); cheap to verify, fatal if violated.
-    bool same = inPadded.size() == perLevel[l].size() && levelDesc.rows == static_cast<int>(perLevel[l].size()) &&
-                levelDesc.cols == 32 && levelDesc.type() == CV_8UC1;
-    for (size_t i = 0; same && i < inPadded.size(); ++i)
-      same = inPadded[i].angle == perLevel[l][i].angle && inPadded[i].pt.x == perLevel[l][i].pt.x + E &&
-             inPadded[i].pt.y == perLevel[l][i].pt.y + E;
-    if (!same)
-      throw Error("OrbExtractor::extract: OpenCV ORB changed the keypoints of level " + std::to_string(l));
-    levelDesc.copyTo(descriptors.rowRange(row, row + levelDesc.rows));
-    row += levelDesc.rows;
-    const float sx = static_cast<float>(pyramid_[0].cols) / static_cast<float>(pyramid_[l].cols);
-    const float sy = static_cast<float>(pyramid_[0].rows) / static_cast<float>(pyramid_[l].rows);
-    for (cv::KeyPoint kp : perLevel[l]) {
-      if (params_.exactLevelCoordinates && l > 0) {
-        kp.pt.x = toOriginalPixel(kp.pt.x, sx);
-        kp.pt.y = toOriginalPixel(kp.pt.y, sy);
-      } else {
-        kp.pt *= scale_[l];
-      }
-      keypoints.push_back(kp);
-    }
+  for (const LevelOutput& lo : levels) {
+    if (lo.keypoints.empty()) continue;
+    keypoints.insert(keypoints.end(), lo.keypoints.begin(), lo.keypoints.end());
+    lo.descriptors.copyTo(descriptors.rowRange(row, row + lo.descriptors.rows));
+    row += lo.descriptors.rows;
   }
-  t.descriptorMs = msSince(start);
-  t.descriptorCpuMs = processCpuMs() - cpu;
 }
 
 }  // namespace pslam::features

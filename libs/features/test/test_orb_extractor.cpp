@@ -213,6 +213,44 @@ TEST(OrbExtractor, DeterministicAcrossRunsAndInstances) {
   EXPECT_EQ(cv::norm(da, da2, cv::NORM_HAMMING), 0.0);
 }
 
+TEST(OrbExtractor, ThreadsShareOutTheLevelsWithoutChangingTheOutput) {
+  // Levels are processed on whichever worker takes them; the output must be the one-thread output bit for bit,
+  // for more threads than levels too, with ORB-SLAM's level coordinates and the exact ones.
+  const cv::Mat img = texturedImage(700, 500, 7);
+  for (const bool exact : {false, true}) {
+    OrbParams one;
+    one.threads = 1;
+    one.exactLevelCoordinates = exact;
+    std::vector<cv::KeyPoint> k1;
+    cv::Mat d1;
+    OrbStageTimes t1;
+    OrbExtractor(one).extract(img, k1, d1, &t1);
+    ASSERT_GT(k1.size(), 1000u);
+    // One thread: the per-level stages add up to the per-level wall time (what bench-features prints).
+    EXPECT_NEAR(t1.detectMs + t1.orientationMs + t1.descriptorMs, t1.levelsMs, 0.1 * t1.levelsMs + 0.05);
+    for (const int threads : {2, 3, 8, 20}) {
+      OrbParams p = one;
+      p.threads = threads;
+      OrbExtractor ex(p);
+      for (int repeat = 0; repeat < 3; ++repeat) {
+        std::vector<cv::KeyPoint> k;
+        cv::Mat d;
+        ex.extract(img, k, d);
+        ASSERT_EQ(k.size(), k1.size()) << threads << " threads";
+        for (size_t i = 0; i < k.size(); ++i) {
+          ASSERT_EQ(k[i].pt, k1[i].pt) << i;
+          ASSERT_EQ(k[i].angle, k1[i].angle) << i;
+          ASSERT_EQ(k[i].octave, k1[i].octave) << i;
+          ASSERT_EQ(k[i].response, k1[i].response) << i;
+          ASSERT_EQ(k[i].size, k1[i].size) << i;
+        }
+        ASSERT_EQ(d.size(), d1.size());
+        EXPECT_EQ(cv::norm(d, d1, cv::NORM_HAMMING), 0.0) << threads << " threads";
+      }
+    }
+  }
+}
+
 TEST(OrbExtractor, ColourInputEqualsItsGreyConversion) {
   const cv::Mat grey = texturedImage(320, 240, 6);
   cv::Mat bgr;
@@ -299,6 +337,7 @@ TEST(OrbParams, ConfigRoundTripAndChecksNameTheKey) {
   b = p; b.minThFAST = 30; expectKey(b, "minThFAST");
   b = p; b.patchSize = 21; expectKey(b, "patchSize");
   b = p; b.edgeThreshold = 10; expectKey(b, "edgeThreshold");
+  b = p; b.threads = 0; expectKey(b, "threads");
 
   // The example of doc/features.md.
   mrpt::config::CConfigFileMemory docCfg(

@@ -30,6 +30,10 @@ inline double msSince(std::chrono::steady_clock::time_point start) {
 /// loaded machine a better estimate of the unloaded cost than wall-clock time, which includes waiting for a core.
 double processCpuMs();
 
+/// CPU time of the calling thread so far, in milliseconds (not counting other threads, OpenCV's workers
+/// included): the cost of work that several threads share out.
+double threadCpuMs();
+
 /// Percentile (0..100) by linear interpolation between order statistics; NaN for an empty set.
 double percentile(std::vector<double> values, double p);
 

@@ -35,6 +35,9 @@ struct OrbParams {
   /// alike). ORB-SLAM's is off by 0.5 (s_l - 1) px (1.3 px at level 7 of 1.2) and by the rounding of the level
   /// sizes, a bias that changes as a tracked point moves between levels.
   bool exactLevelCoordinates = false;
+  /// Threads that share out the pyramid levels (detection, orientation, descriptors; 1 = the calling thread
+  /// only). The output does not depend on it: each level is computed alone and the levels are joined in order.
+  int threads = 2;
 
   template <class V>
   void visitFields(V& v) {
@@ -60,20 +63,26 @@ struct OrbParams {
     PSLAM_FIELD(v, levelBudgetByArea, anyValue, "per-level budget proportional to the level area");
     PSLAM_FIELD(v, literalCellFast, anyValue, "one cv::FAST call per cell as ORB-SLAM (reference, slower)");
     PSLAM_FIELD(v, exactLevelCoordinates, anyValue, "level -> image coordinates by the pyramid's resize mapping");
+    PSLAM_FIELD(v, threads, inClosed(1, 64), "threads sharing out the pyramid levels (the output is the same for any)");
   }
   PSLAM_PARAMS("ORB")
 };
 
-/// Milliseconds spent in the stages of one extract() call: wall-clock, and CPU time of the whole process (all
-/// threads, incl. OpenCV's workers), which on a loaded machine estimates the unloaded run time better.
+/// Milliseconds spent in one extract() call. The pyramid and the whole per-level part (`levels`) as wall-clock
+/// time and as CPU time of the whole process (all threads, incl. OpenCV's workers; on a loaded machine a better
+/// estimate of the unloaded cost). The levels are shared out over OrbParams::threads, so the three per-level
+/// stages are the work summed over the levels: wall-clock time each level spent in the stage on its thread, and
+/// that thread's CPU time; with one thread they add up to `levels`.
 struct OrbStageTimes {
   double pyramidMs = 0;      ///< building the padded scale pyramid
-  double detectMs = 0;       ///< per-cell FAST + quadtree distribution
-  double orientationMs = 0;  ///< intensity-centroid angles
-  double descriptorMs = 0;   ///< Gaussian blur + steered BRIEF
-  double pyramidCpuMs = 0, detectCpuMs = 0, orientationCpuMs = 0, descriptorCpuMs = 0;
-  double totalMs() const { return pyramidMs + detectMs + orientationMs + descriptorMs; }
-  double totalCpuMs() const { return pyramidCpuMs + detectCpuMs + orientationCpuMs + descriptorCpuMs; }
+  double levelsMs = 0;       ///< detection, orientation and descriptors of all levels, wall-clock
+  double detectMs = 0;       ///< per-cell FAST + quadtree distribution, summed over the levels
+  double orientationMs = 0;  ///< intensity-centroid angles, summed over the levels
+  double descriptorMs = 0;   ///< Gaussian blur + steered BRIEF, summed over the levels
+  double pyramidCpuMs = 0, levelsCpuMs = 0;                      ///< process CPU
+  double detectCpuMs = 0, orientationCpuMs = 0, descriptorCpuMs = 0;  ///< CPU of the threads doing the stage
+  double totalMs() const { return pyramidMs + levelsMs; }
+  double totalCpuMs() const { return pyramidCpuMs + levelsCpuMs; }
 };
 
 class OrbExtractor {
@@ -84,8 +93,8 @@ class OrbExtractor {
   /// Keypoints are in level-0 pixel coordinates, grouped by level (level 0 first); `octave` = pyramid level,
   /// `angle` in degrees [0,360) in image axes (x right, y down), `size` = patchSize * scaleFactor(level),
   /// `response` = FAST score. descriptors: CV_8UC1, N x 32, row i belongs to keypoint i.
-  /// Deterministic: the same image always gives the same output. Throws pslam::Error on empty or
-  /// unsupported images. Not thread-safe (reuses its pyramid buffers); use one extractor per thread.
+  /// Deterministic: the same image always gives the same output, for any number of threads. Throws pslam::Error
+  /// on empty or unsupported images. Not thread-safe (reuses its pyramid buffers); use one extractor per thread.
   void extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
                OrbStageTimes* times = nullptr);
 
@@ -117,6 +126,10 @@ class OrbExtractor {
  private:
   void buildPyramid(const cv::Mat& grey);
   void detectLevel(int level, std::vector<cv::KeyPoint>& out) const;
+  struct LevelOutput;
+  /// Detection, orientation and descriptors of one level (keypoints in level-0 pixels); reads only the
+  /// pyramid, so levels can be processed on different threads, each with its own describer.
+  void processLevel(int level, cv::ORB& describer, LevelOutput& out) const;
 
   OrbParams params_;
   std::vector<float> scale_, invScale_, sigma2_, invSigma2_;
@@ -124,7 +137,9 @@ class OrbExtractor {
   std::vector<int> umax_;  ///< half-width of the circular patch per row offset v (ORB-SLAM's umax)
   std::vector<cv::Mat> padded_;
   std::vector<cv::Mat> pyramid_;
-  cv::Ptr<cv::ORB> describer_;  ///< OpenCV's steered-BRIEF code, fed our keypoints and angles
+  /// OpenCV's steered-BRIEF code, fed our keypoints and angles: one per thread (OpenCV does not promise that
+  /// one cv::ORB may compute on two threads at once).
+  std::vector<cv::Ptr<cv::ORB>> describers_;
 };
 
 }  // namespace pslam::features
