@@ -7,6 +7,7 @@
 #include <cmath>
 #include <ctime>
 #include <exception>
+#include <system_error>
 #include <thread>
 
 #include <opencv2/imgproc.hpp>
@@ -399,15 +400,20 @@ void OrbExtractor::extract(const cv::Mat& image, std::vector<cv::KeyPoint>& keyp
   const int workers = static_cast<int>(describers_.size());
   std::vector<std::exception_ptr> failures(workers);
   std::vector<std::thread> pool;
-  for (int w = 1; w < workers; ++w)
-    pool.emplace_back([&, w] {
-      try {
-        work(*describers_[w]);
-      } catch (...) {
-        failures[w] = std::current_exception();
-        nextLevel = L;  // the others stop after their current level
-      }
-    });
+  for (int w = 1; w < workers; ++w) {
+    try {
+      pool.emplace_back([&, w] {
+        try {
+          work(*describers_[w]);
+        } catch (...) {
+          failures[w] = std::current_exception();
+          nextLevel = L;  // the others stop after their current level
+        }
+      });
+    } catch (const std::system_error&) {
+      break;  // no thread to be had: the threads there are take every level, with the same output
+    }
+  }
   try {
     work(*describers_[0]);
   } catch (...) {
