@@ -176,8 +176,7 @@ BenchFeaturesResult BenchFeaturesApp::run(std::ostream& out) const {
   out << line;
   for (const char* stage : {"pyramid", "fast+quadtree", "orientation", "descriptors", "levels", "total",
                             "pyramid_cpu", "fast+quadtree_cpu", "orientation_cpu", "descriptors_cpu", "levels_cpu",
-                            "total_cpu", "opencv_orb",
-                            "opencv_orb_cpu", "direct_points", "direct_points_cpu"}) {
+                            "total_cpu", "opencv_orb", "opencv_orb_cpu", "direct_points", "direct_points_cpu"}) {
     const auto it = result.timings.samples().find(stage);
     if (it == result.timings.samples().end()) continue;
     std::snprintf(line, sizeof line, "%-18s %10.2f %10.2f %10.2f\n", stage, percentile(it->second, 50),

@@ -8,17 +8,17 @@
 
 namespace pslam {
 
-double processCpuMs() {
+namespace {
+double cpuClockMs(clockid_t clock) {
   timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  clock_gettime(clock, &ts);
   return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
+}  // namespace
 
-double threadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
+double processCpuMs() { return cpuClockMs(CLOCK_PROCESS_CPUTIME_ID); }
+
+double threadCpuMs() { return cpuClockMs(CLOCK_THREAD_CPUTIME_ID); }
 
 void StageTimings::add(const std::string& stage, double ms) { samples_[stage].push_back(ms); }
 
