@@ -1,0 +1,61 @@
+#pragma once
+// The `match-oracle` tool: how many ORB correspondences the ground truth allows between frames of a rawlog, and
+// how many of them a descriptor search can find. For each pair of frames (k, k + s), s = 1..steps, every
+// keypoint of frame k with a depth is moved into frame k + s with the ground-truth poses; a keypoint of frame
+// k + s within the search radius is a true correspondence. This bounds what any ORB tracker can match between
+// two views, independently of its motion prediction: a dataset whose frames share too few correspondences
+// cannot be tracked by matching them, however the search is done.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace pslam::features {
+
+struct MatchOracleOptions {
+  std::filesystem::path rawlog;       ///< input rawlog with DEPTH (DESIGN.md §3)
+  std::filesystem::path groundTruth;  ///< TUM file; default `<stem>_groundtruth.txt` beside the rawlog
+  std::filesystem::path config;       ///< SLAM ini: its [ORB] section sets the extractor (required)
+  std::vector<std::string> overrides; ///< `Section.key=value`, as slam-run's --set
+  int steps = 3;                      ///< pairs (k, k + s) for s = 1..steps
+  double radius = 5.0;                ///< [px] at level 0, times the keypoint's level scale
+  int maxHamming = 50;                ///< a correspondence is matchable at this distance or less (ORB-SLAM TH_LOW)
+  double ratio = 0.8;                 ///< nearest-neighbour ratio of the whole-image descriptor search
+  double depthTolerance = 0.05;       ///< relative: a point behind the second frame's depth is occluded
+  double maxGroundTruthDt = 0.02;     ///< [s] ground-truth association window
+  int minMatches = 30;                ///< pairs reported with at least this many (ORB-SLAM: lost below 30 inliers)
+  std::filesystem::path outputJson;   ///< optional, written atomically
+  bool progress = true;
+
+  /// Throws pslam::Error naming the option.
+  void check() const;
+};
+
+/// Counts of one frame pair. Each count is a subset of the one before, except `foundByDescriptor` (a subset of
+/// `matchable`).
+struct PairCounts {
+  std::size_t first = 0, second = 0;  ///< frame indices
+  int step = 0;
+  double baseline = 0;                ///< [m] between the two camera centres (ground truth)
+  double rotationDeg = 0;             ///< relative rotation (ground truth)
+  std::size_t keypoints = 0;          ///< ORB keypoints of the first frame
+  std::size_t withDepth = 0;          ///< ... with a valid depth
+  std::size_t visible = 0;            ///< ... in front of the second camera, inside its image, not occluded
+  std::size_t repeated = 0;           ///< ... with a keypoint of the second frame within the radius
+  std::size_t matchable = 0;          ///< ... whose best descriptor within the radius is <= maxHamming
+  std::size_t foundByDescriptor = 0;  ///< ... which the whole-image nearest neighbour (ratio test) also finds
+};
+
+struct MatchOracleResult {
+  std::vector<PairCounts> pairs;
+  nlohmann::json report;  ///< options, per pair, summary per step
+  std::string text;       ///< summary table per step
+};
+
+/// Throws pslam::Error naming the file or option on bad input: no depth, no ground truth for a frame, lens
+/// distortion (the projection is a pinhole one), an unreadable config. The JSON is written only when the run
+/// completes.
+MatchOracleResult runMatchOracle(const MatchOracleOptions& options);
+
+}  // namespace pslam::features

@@ -1,0 +1,277 @@
+#include "pslam/features/MatchOracleApp.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <limits>
+
+#include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
+
+#include "pslam/core/AtomicFile.h"
+#include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
+#include "pslam/core/Progress.h"
+#include "pslam/core/StageTimer.h"
+#include "pslam/core/Trajectory.h"
+#include "pslam/datasets/Rawlog.h"
+#include "pslam/features/Matching.h"
+#include "pslam/features/OrbExtractor.h"
+#include "pslam/system/SlamParams.h"
+
+namespace fs = std::filesystem;
+
+namespace pslam::features {
+
+namespace {
+
+/// One frame as the oracle needs it: keypoints, descriptors, depth in metres per keypoint, pose.
+struct OracleFrame {
+  std::size_t index = 0;
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  std::vector<double> keypointDepth;  ///< [m], 0 = none
+  cv::Mat depth;                      ///< CV_16UC1
+  double depthUnits = 0;
+  Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
+};
+
+const StampedPose* nearestPose(const Trajectory& gt, double t, double maxDt) {
+  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const StampedPose& p, double s) { return p.timestamp < s; });
+  const StampedPose* best = nullptr;
+  if (it != gt.end()) best = &*it;
+  if (it != gt.begin() && (!best || std::abs((it - 1)->timestamp - t) < std::abs(best->timestamp - t)))
+    best = &*(it - 1);
+  return best && std::abs(best->timestamp - t) <= maxDt ? best : nullptr;
+}
+
+double depthAt(const cv::Mat& depth, double units, double u, double v) {
+  const int x = static_cast<int>(std::lround(u)), y = static_cast<int>(std::lround(v));
+  if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) return 0;
+  return depth.at<uint16_t>(y, x) * units;
+}
+
+PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img::TCamera& cam,
+                     const std::vector<float>& scales, const MatchOracleOptions& o) {
+  PairCounts c;
+  c.first = a.index;
+  c.second = b.index;
+  const Eigen::Isometry3d T_b_a = b.T_world_cam.inverse() * a.T_world_cam;
+  c.baseline = T_b_a.translation().norm();
+  c.rotationDeg = Eigen::AngleAxisd(T_b_a.linear()).angle() * 180.0 / M_PI;
+  c.keypoints = a.keypoints.size();
+  const double fx = cam.fx(), fy = cam.fy(), cx = cam.cx(), cy = cam.cy();
+  const int cols = static_cast<int>(cam.ncols), rows = static_cast<int>(cam.nrows);
+  for (std::size_t i = 0; i < a.keypoints.size(); ++i) {
+    const double d = a.keypointDepth[i];
+    if (d <= 0) continue;
+    ++c.withDepth;
+    const cv::Point2f& p = a.keypoints[i].pt;
+    const Eigen::Vector3d Xa((p.x - cx) / fx * d, (p.y - cy) / fy * d, d);
+    const Eigen::Vector3d Xb = T_b_a * Xa;
+    if (Xb.z() <= 0) continue;
+    const double u = fx * Xb.x() / Xb.z() + cx, v = fy * Xb.y() / Xb.z() + cy;
+    if (u < 0 || v < 0 || u > cols - 1 || v > rows - 1) continue;
+    // Occluded when the second frame sees a surface clearly in front of the point (no depth there: kept).
+    const double db = depthAt(b.depth, b.depthUnits, u, v);
+    if (db > 0 && Xb.z() > db * (1.0 + o.depthTolerance)) continue;
+    ++c.visible;
+    const double r = o.radius * scales[static_cast<std::size_t>(a.keypoints[i].octave)];
+    int bestInRadius = std::numeric_limits<int>::max();
+    int bestIndex = -1;
+    bool anyInRadius = false;
+    std::vector<char> inRadius(b.keypoints.size(), 0);
+    for (std::size_t j = 0; j < b.keypoints.size(); ++j) {
+      const double du = b.keypoints[j].pt.x - u, dv = b.keypoints[j].pt.y - v;
+      if (du * du + dv * dv > r * r) continue;
+      inRadius[j] = 1;
+      anyInRadius = true;
+      const int dist = hammingDistance(a.descriptors, static_cast<int>(i), b.descriptors, static_cast<int>(j));
+      if (dist < bestInRadius) {
+        bestInRadius = dist;
+        bestIndex = static_cast<int>(j);
+      }
+    }
+    if (!anyInRadius) continue;
+    ++c.repeated;
+    if (bestIndex < 0 || bestInRadius > o.maxHamming) continue;
+    ++c.matchable;
+    // What a search without any pose prediction finds: the nearest descriptor over the whole image, kept when
+    // it passes the ratio test and the threshold; correct when it lies within the radius.
+    int best = std::numeric_limits<int>::max(), second = std::numeric_limits<int>::max(), nn = -1;
+    for (std::size_t j = 0; j < b.keypoints.size(); ++j) {
+      const int dist = hammingDistance(a.descriptors, static_cast<int>(i), b.descriptors, static_cast<int>(j));
+      if (dist < best) {
+        second = best;
+        best = dist;
+        nn = static_cast<int>(j);
+      } else if (dist < second) {
+        second = dist;
+      }
+    }
+    if (nn >= 0 && best <= o.maxHamming && best < o.ratio * second && inRadius[static_cast<std::size_t>(nn)])
+      ++c.foundByDescriptor;
+  }
+  return c;
+}
+
+nlohmann::json toJson(const PairCounts& c) {
+  return {{"first", c.first},         {"second", c.second},       {"step", c.step},
+          {"baseline_m", c.baseline}, {"rotation_deg", c.rotationDeg}, {"keypoints", c.keypoints},
+          {"with_depth", c.withDepth}, {"visible", c.visible},    {"repeated", c.repeated},
+          {"matchable", c.matchable}, {"found_by_descriptor", c.foundByDescriptor}};
+}
+
+}  // namespace
+
+void MatchOracleOptions::check() const {
+  params::checkOption("--steps", steps, params::inClosed(1, 1000));
+  params::checkOption("--radius", radius, params::inOpen(0, 1000));
+  params::checkOption("--max-hamming", maxHamming, params::inClosed(0, 256));
+  params::checkOption("--ratio", ratio, params::inOpen(0, 1.0000001));
+  params::checkOption("--depth-tolerance", depthTolerance, params::atLeast(0));
+  params::checkOption("--max-gt-dt", maxGroundTruthDt, params::atLeast(0));
+  params::checkOption("--min-matches", minMatches, params::atLeast(0));
+  require(!rawlog.empty(), "match-oracle", "an input rawlog is required");
+  require(!config.empty(), "--config", "a SLAM ini is required (its [ORB] section sets the extractor)");
+}
+
+MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
+  o.check();
+  require(fs::is_regular_file(o.rawlog), o.rawlog.string(), "rawlog not found");
+  require(fs::is_regular_file(o.config), o.config.string(), "config not found");
+  const system::SlamParams slam = system::loadSlamParams(o.config.string(), o.overrides);
+  fs::path gtPath = o.groundTruth;
+  if (gtPath.empty()) gtPath = o.rawlog.parent_path() / (o.rawlog.stem().string() + "_groundtruth.txt");
+  require(fs::is_regular_file(gtPath), gtPath.string(), "ground-truth file not found");
+  std::vector<fs::path> inputs = datasets::RawlogWriter::inputFilesOf(o.rawlog);
+  inputs.push_back(gtPath);
+  inputs.push_back(o.config);
+  OutputSet outputs(inputs);
+  AtomicOutput* jsonOut = o.outputJson.empty() ? nullptr : &outputs.add(o.outputJson);
+  Trajectory gt = readTumTrajectory(gtPath);
+  std::sort(gt.begin(), gt.end(), [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
+
+  datasets::RawlogChannels channels;
+  channels.semantic = false;
+  channels.normals = false;
+  datasets::RawlogReader reader(o.rawlog, channels);
+  Progress progress("match-oracle", datasets::RawlogReader::countFrames(o.rawlog), o.progress);
+  OrbExtractor extractor(slam.orb);
+  MatchOracleResult result;
+  std::deque<OracleFrame> window;  // the last `steps` frames
+  mrpt::img::TCamera camera;
+  datasets::Frame frame;
+  std::size_t nFrames = 0;
+  while (reader.next(frame)) {
+    const std::string where = o.rawlog.string() + " frame " + std::to_string(frame.index);
+    require(frame.hasDepth(), where, "no DEPTH channel (the oracle needs depth to move keypoints between frames)");
+    for (std::size_t k = 0; k < frame.camera.dist.size(); ++k)
+      require(frame.camera.dist[k] == 0.0, where, "lens distortion is not supported (pinhole projection only)");
+    camera = frame.camera;
+    const StampedPose* pose = nearestPose(gt, frame.timestamp, o.maxGroundTruthDt);
+    require(pose != nullptr, where,
+            "no ground-truth pose within " + std::to_string(o.maxGroundTruthDt) + " s in " + gtPath.string());
+    OracleFrame f;
+    f.index = frame.index;
+    f.T_world_cam = pose->T_world_cam();
+    f.depth = frame.depth;
+    f.depthUnits = frame.depthUnits;
+    cv::Mat grey = frame.image;
+    if (grey.channels() == 3) cv::cvtColor(frame.image, grey, cv::COLOR_BGR2GRAY);
+    extractor.extract(grey, f.keypoints, f.descriptors);
+    f.keypointDepth.reserve(f.keypoints.size());
+    for (const cv::KeyPoint& kp : f.keypoints)
+      f.keypointDepth.push_back(depthAt(f.depth, f.depthUnits, kp.pt.x, kp.pt.y));
+    for (std::size_t back = 0; back < window.size(); ++back) {
+      const OracleFrame& first = window[window.size() - 1 - back];
+      PairCounts c = countPair(first, f, camera, extractor.scaleFactors(), o);
+      c.step = static_cast<int>(back) + 1;
+      result.pairs.push_back(c);
+    }
+    window.push_back(std::move(f));
+    if (static_cast<int>(window.size()) > o.steps) window.pop_front();
+    progress.update(++nFrames);
+  }
+  require(nFrames >= 2, o.rawlog.string(), "fewer than two frames");
+  progress.finish(std::to_string(result.pairs.size()) + " pairs");
+
+  // Summary per step: medians and the share of pairs with at least minMatches matchable / found.
+  nlohmann::json perStep = nlohmann::json::array();
+  char line[256];
+  std::snprintf(line, sizeof line, ", %zu frames, [ORB] nFeatures %d, radius %.1f px, max Hamming %d\n", nFrames,
+                slam.orb.nFeatures, o.radius, o.maxHamming);
+  std::string text = "match-oracle: " + o.rawlog.string() + line;
+  std::snprintf(line, sizeof line, "%4s %5s %9s %8s %9s %8s %8s %9s %9s %9s %8s\n", "step", "pairs", "baseline",
+                "rot_deg", "keypoints", "w_depth", "visible", "repeated", "matchable", "found_nn", "pairs>=");
+  text += line;
+  for (int s = 1; s <= o.steps; ++s) {
+    std::vector<double> base, rot, kp, wd, vis, rep, mat, nn;
+    std::size_t enoughMatchable = 0, enoughFound = 0;
+    for (const PairCounts& c : result.pairs) {
+      if (c.step != s) continue;
+      base.push_back(c.baseline);
+      rot.push_back(c.rotationDeg);
+      kp.push_back(static_cast<double>(c.keypoints));
+      wd.push_back(static_cast<double>(c.withDepth));
+      vis.push_back(static_cast<double>(c.visible));
+      rep.push_back(static_cast<double>(c.repeated));
+      mat.push_back(static_cast<double>(c.matchable));
+      nn.push_back(static_cast<double>(c.foundByDescriptor));
+      enoughMatchable += c.matchable >= static_cast<std::size_t>(o.minMatches);
+      enoughFound += c.foundByDescriptor >= static_cast<std::size_t>(o.minMatches);
+    }
+    if (base.empty()) continue;
+    const auto med = [](const std::vector<double>& v) { return percentile(v, 50.0); };
+    perStep.push_back({{"step", s},
+                       {"pairs", base.size()},
+                       {"median_baseline_m", med(base)},
+                       {"median_rotation_deg", med(rot)},
+                       {"median_keypoints", med(kp)},
+                       {"median_with_depth", med(wd)},
+                       {"median_visible", med(vis)},
+                       {"median_repeated", med(rep)},
+                       {"median_matchable", med(mat)},
+                       {"p10_matchable", percentile(mat, 10.0)},
+                       {"median_found_by_descriptor", med(nn)},
+                       {"pairs_with_min_matchable", enoughMatchable},
+                       {"pairs_with_min_found", enoughFound}});
+    std::snprintf(line, sizeof line, "%4d %5zu %9.3f %8.1f %9.0f %8.0f %8.0f %9.0f %9.0f %9.0f %3zu/%-3zu\n", s,
+                  base.size(), med(base), med(rot), med(kp), med(wd), med(vis), med(rep), med(mat), med(nn),
+                  enoughMatchable, base.size());
+    text += line;
+  }
+  text += "(medians over the pairs; pairs>=: pairs with at least " + std::to_string(o.minMatches) +
+          " matchable correspondences)\n";
+  nlohmann::json pairs = nlohmann::json::array();
+  for (const PairCounts& c : result.pairs) pairs.push_back(toJson(c));
+  result.report = {{"tool", "match-oracle"},
+                   {"rawlog", o.rawlog.string()},
+                   {"ground_truth", gtPath.string()},
+                   {"config", o.config.string()},
+                   {"overrides", o.overrides},
+                   {"options",
+                    {{"steps", o.steps},
+                     {"radius_px", o.radius},
+                     {"max_hamming", o.maxHamming},
+                     {"ratio", o.ratio},
+                     {"depth_tolerance", o.depthTolerance},
+                     {"max_gt_dt", o.maxGroundTruthDt},
+                     {"min_matches", o.minMatches}}},
+                   {"orb",
+                    {{"nFeatures", slam.orb.nFeatures},
+                     {"nLevels", slam.orb.nLevels},
+                     {"scaleFactor", slam.orb.scaleFactor}}},
+                   {"frames", nFrames},
+                   {"per_step", perStep},
+                   {"pairs", pairs}};
+  result.text = text;
+  if (jsonOut) {
+    writeOutputFile(*jsonOut, [&](std::ostream& os) { os << result.report.dump(2) << "\n"; });
+    outputs.commit();
+  }
+  return result;
+}
+
+}  // namespace pslam::features
