@@ -29,15 +29,6 @@ namespace pslam::manhattan {
 
 namespace {
 
-const StampedPose* nearestPose(const Trajectory& gt, double t, double maxDt) {
-  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const StampedPose& p, double s) { return p.timestamp < s; });
-  const StampedPose* best = nullptr;
-  if (it != gt.end()) best = &*it;
-  if (it != gt.begin() && (!best || std::abs((it - 1)->timestamp - t) < std::abs(best->timestamp - t)))
-    best = &*(it - 1);
-  return best && std::abs(best->timestamp - t) <= maxDt ? best : nullptr;
-}
-
 double median(std::vector<double> v) { return percentile(std::move(v), 50.0); }
 
 }  // namespace

@@ -37,15 +37,6 @@ struct OracleFrame {
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
 };
 
-const StampedPose* nearestPose(const Trajectory& gt, double t, double maxDt) {
-  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const StampedPose& p, double s) { return p.timestamp < s; });
-  const StampedPose* best = nullptr;
-  if (it != gt.end()) best = &*it;
-  if (it != gt.begin() && (!best || std::abs((it - 1)->timestamp - t) < std::abs(best->timestamp - t)))
-    best = &*(it - 1);
-  return best && std::abs(best->timestamp - t) <= maxDt ? best : nullptr;
-}
-
 double depthAt(const cv::Mat& depth, double units, double u, double v) {
   const int x = static_cast<int>(std::lround(u)), y = static_cast<int>(std::lround(v));
   if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) return 0;

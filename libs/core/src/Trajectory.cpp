@@ -1,5 +1,6 @@
 #include "pslam/core/Trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -107,6 +108,15 @@ void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& tra
     os << "# timestamp tx ty tz qx qy qz qw (camera-to-world)\n";
     for (const auto& p : trajectory) os << formatTumLine(p) << "\n";
   });
+}
+
+const StampedPose* nearestPose(const Trajectory& sortedByStamp, double t, double maxDt) {
+  const auto it = std::lower_bound(sortedByStamp.begin(), sortedByStamp.end(), t,
+                                   [](const StampedPose& p, double s) { return p.timestamp < s; });
+  const StampedPose* best = it != sortedByStamp.end() ? &*it : nullptr;
+  if (it != sortedByStamp.begin() && (!best || std::abs((it - 1)->timestamp - t) < std::abs(best->timestamp - t)))
+    best = &*(it - 1);
+  return best && std::abs(best->timestamp - t) <= maxDt ? best : nullptr;
 }
 
 }  // namespace pslam

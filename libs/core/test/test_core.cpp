@@ -65,6 +65,31 @@ TEST(Trajectory, MalformedLineNamesFileAndLine) {
   EXPECT_THROW(readTumTrajectory(d / "missing.txt"), Error);
 }
 
+TEST(Trajectory, NearestPoseWithinTheWindowAgainstBruteForce) {
+  Trajectory gt;
+  for (double t : {1.00, 1.01, 1.03, 1.06, 1.10}) gt.emplace_back(t, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(nearestPose({}, 1.0, 1.0), nullptr);
+  // Against the nearest by a scan (distances compared: which of two equally near is taken is not checked).
+  for (double t = 0.95; t <= 1.16; t += 0.0017) {
+    for (double maxDt : {0.0, 0.004, 0.02, 1.0}) {
+      const StampedPose* brute = nullptr;
+      for (const StampedPose& p : gt) {
+        if (std::abs(p.timestamp - t) <= maxDt &&
+            (!brute || std::abs(p.timestamp - t) < std::abs(brute->timestamp - t)))
+          brute = &p;
+      }
+      const StampedPose* got = nearestPose(gt, t, maxDt);
+      ASSERT_EQ(got == nullptr, brute == nullptr) << "t " << t << " maxDt " << maxDt;
+      if (got) {
+        EXPECT_DOUBLE_EQ(std::abs(got->timestamp - t), std::abs(brute->timestamp - t)) << t;
+      }
+    }
+  }
+  EXPECT_EQ(nearestPose(gt, 1.03, 0.0), &gt[2]);
+  EXPECT_EQ(nearestPose(gt, 0.5, 0.2), nullptr);
+  EXPECT_EQ(nearestPose(gt, 1.5, 0.2), nullptr);
+}
+
 TEST(Trajectory, CPose3DConversionRoundTrip) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -0.2, 0.9).normalized()).toRotationMatrix();

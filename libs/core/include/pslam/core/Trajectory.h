@@ -50,4 +50,8 @@ void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& tra
 /// Formats one TUM line (no newline).
 std::string formatTumLine(const StampedPose& pose);
 
+/// The pose of `sortedByStamp` (ascending timestamps) nearest in time to `t`, or null when none is within `maxDt`
+/// seconds (ground truth for a frame; of two equally near, the later).
+const StampedPose* nearestPose(const Trajectory& sortedByStamp, double t, double maxDt);
+
 }  // namespace pslam
