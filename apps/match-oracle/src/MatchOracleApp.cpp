@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
-#include <limits>
+#include <numeric>
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
@@ -54,6 +54,8 @@ PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img
   c.keypoints = a.keypoints.size();
   const double fx = cam.fx(), fy = cam.fy(), cx = cam.cx(), cy = cam.cy();
   const int cols = static_cast<int>(cam.ncols), rows = static_cast<int>(cam.nrows);
+  std::vector<std::size_t> all(b.keypoints.size());
+  std::iota(all.begin(), all.end(), std::size_t{0});
   for (std::size_t i = 0; i < a.keypoints.size(); ++i) {
     const double d = a.keypointDepth[i];
     if (d <= 0) continue;
@@ -69,39 +71,21 @@ PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img
     if (db > 0 && Xb.z() > db * (1.0 + o.depthTolerance)) continue;
     ++c.visible;
     const double r = o.radius * scales[static_cast<std::size_t>(a.keypoints[i].octave)];
-    int bestInRadius = std::numeric_limits<int>::max();
-    int bestIndex = -1;
-    bool anyInRadius = false;
-    std::vector<char> inRadius(b.keypoints.size(), 0);
+    std::vector<std::size_t> inRadius;
     for (std::size_t j = 0; j < b.keypoints.size(); ++j) {
       const double du = b.keypoints[j].pt.x - u, dv = b.keypoints[j].pt.y - v;
-      if (du * du + dv * dv > r * r) continue;
-      inRadius[j] = 1;
-      anyInRadius = true;
-      const int dist = hammingDistance(a.descriptors, static_cast<int>(i), b.descriptors, static_cast<int>(j));
-      if (dist < bestInRadius) {
-        bestInRadius = dist;
-        bestIndex = static_cast<int>(j);
-      }
+      if (du * du + dv * dv <= r * r) inRadius.push_back(j);
     }
-    if (!anyInRadius) continue;
+    if (inRadius.empty()) continue;
     ++c.repeated;
-    if (bestIndex < 0 || bestInRadius > o.maxHamming) continue;
+    const uint8_t* descriptor = a.descriptors.ptr<uint8_t>(static_cast<int>(i));
+    if (bestCandidate(descriptor, b.descriptors, inRadius).distance > o.maxHamming) continue;
     ++c.matchable;
     // What a search without any pose prediction finds: the nearest descriptor over the whole image, kept when
-    // it passes the ratio test and the threshold; correct when it lies within the radius.
-    int best = std::numeric_limits<int>::max(), second = std::numeric_limits<int>::max(), nn = -1;
-    for (std::size_t j = 0; j < b.keypoints.size(); ++j) {
-      const int dist = hammingDistance(a.descriptors, static_cast<int>(i), b.descriptors, static_cast<int>(j));
-      if (dist < best) {
-        second = best;
-        best = dist;
-        nn = static_cast<int>(j);
-      } else if (dist < second) {
-        second = dist;
-      }
-    }
-    if (nn >= 0 && best <= o.maxHamming && best < o.ratio * second && inRadius[static_cast<std::size_t>(nn)])
+    // it passes the threshold and the ratio test; correct when it lies within the radius.
+    const BestCandidate nn = bestCandidate(descriptor, b.descriptors, all);
+    if (nn.accepted(o.maxHamming, static_cast<float>(o.ratio)) &&
+        std::binary_search(inRadius.begin(), inRadius.end(), static_cast<std::size_t>(nn.index)))
       ++c.foundByDescriptor;
   }
   return c;
