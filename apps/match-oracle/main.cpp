@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
       "tracker can match between two views.\n"
       "Example: match-oracle cabinet.rawlog --config config/slam/structure.ini --steps 2 --json oracle.json"};
   pslam::features::MatchOracleOptions o;
-  std::string rawlog, gt, config, json;
+  std::string rawlog, gt, config, json, plot;
   using pslam::params::cliCheck;
   using pslam::params::atLeast;
   app.add_option("rawlog", rawlog, "input rawlog with a DEPTH channel")->required();
@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   app.add_option("--min-matches", o.minMatches, "count the pairs with at least this many matchable")
       ->capture_default_str();
   app.add_option("--json", json, "write the options, per-pair counts and per-step summary as JSON");
+  app.add_option("--plot", plot, "write a PNG of the counts of neighbouring frames (k, k+1)");
   app.add_flag("-q,--quiet", [&o](int64_t) { o.progress = false; }, "no progress on stderr");
   try {
     app.parse(argc, argv);
@@ -46,6 +47,7 @@ int main(int argc, char** argv) {
     o.groundTruth = gt;
     o.config = config;
     o.outputJson = json;
+    o.outputPlot = plot;
     const auto result = pslam::features::runMatchOracle(o);
     std::cout << result.text;
   } catch (const std::exception& e) {

@@ -16,6 +16,7 @@
 #include "pslam/core/StageTimer.h"
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam/eval/Plot.h"
 #include "pslam/features/Matching.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/system/SlamParams.h"
@@ -125,6 +126,7 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
   inputs.push_back(o.config);
   OutputSet outputs(inputs);
   AtomicOutput* jsonOut = o.outputJson.empty() ? nullptr : &outputs.add(o.outputJson);
+  AtomicOutput* plotOut = o.outputPlot.empty() ? nullptr : &outputs.add(o.outputPlot);
   Trajectory gt = readTumTrajectory(gtPath);
   std::sort(gt.begin(), gt.end(), [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
 
@@ -242,10 +244,29 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
                    {"per_step", perStep},
                    {"pairs", pairs}};
   result.text = text;
-  if (jsonOut) {
-    writeOutputFile(*jsonOut, [&](std::ostream& os) { os << result.report.dump(2) << "\n"; });
-    outputs.commit();
+  if (jsonOut) writeOutputFile(*jsonOut, [&](std::ostream& os) { os << result.report.dump(2) << "\n"; });
+  if (plotOut) {
+    eval::Plot plot("ORB correspondences between frames k and k+1 (ground truth)", "frame k", "keypoints of frame k");
+    std::vector<double> k, visible, repeated, matchable, found;
+    for (const PairCounts& c : result.pairs) {
+      if (c.step != 1) continue;
+      k.push_back(static_cast<double>(c.first));
+      visible.push_back(static_cast<double>(c.visible));
+      repeated.push_back(static_cast<double>(c.repeated));
+      matchable.push_back(static_cast<double>(c.matchable));
+      found.push_back(static_cast<double>(c.foundByDescriptor));
+    }
+    plot.addLine(k, visible, "visible", eval::colors::grey(), 1);
+    plot.addLine(k, repeated, "repeated (keypoint within the radius)", eval::colors::blue());
+    plot.addLine(k, matchable, "matchable (descriptor within the threshold)", eval::colors::green());
+    plot.addLine(k, found, "found by the whole-image nearest neighbour", eval::colors::orange());
+    if (!k.empty())
+      plot.addLine({k.front(), k.back()}, {static_cast<double>(o.minMatches), static_cast<double>(o.minMatches)},
+                   std::to_string(o.minMatches) + " (--min-matches)", eval::colors::red(), 1);
+    plot.setYRange(0, std::max(1.0, visible.empty() ? 1.0 : *std::max_element(visible.begin(), visible.end())) * 1.05);
+    plot.save(plotOut->tempPath());
   }
+  outputs.commit();
   return result;
 }
 

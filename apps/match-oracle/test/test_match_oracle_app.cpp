@@ -69,6 +69,21 @@ TEST(MatchOracle, TruePosesCarryMostKeypointsOntoTheirCorrespondences) {
   EXPECT_EQ(r.report["per_step"][0]["pairs"], 4);
 }
 
+TEST(MatchOracle, WritesTheJsonAndThePlotTogether) {
+  features::MatchOracleOptions o = options();
+  o.outputJson = tempRoot().path / "out" / "oracle.json";
+  o.outputPlot = tempRoot().path / "out" / "oracle.png";
+  fs::create_directories(o.outputJson.parent_path());
+  features::runMatchOracle(o);
+  EXPECT_GT(fs::file_size(o.outputJson), 100u);
+  EXPECT_GT(fs::file_size(o.outputPlot), 1000u);
+  // A plot path that cannot be written (a folder): an error before the work, and no JSON either.
+  fs::remove(o.outputJson);
+  o.outputPlot = tempRoot().path / "out";
+  EXPECT_THROW(features::runMatchOracle(o), Error);
+  EXPECT_FALSE(fs::exists(o.outputJson));
+}
+
 TEST(MatchOracle, WrongPosesFindFewCorrespondences) {
   // The same frames with every ground-truth camera moved 0.3 m sideways per frame: the transfer misses.
   const Trajectory gt = readTumTrajectory(roomClip().groundTruth);

@@ -26,6 +26,8 @@ struct MatchOracleOptions {
   double maxGroundTruthDt = 0.02;     ///< [s] ground-truth association window
   int minMatches = 30;                ///< pairs reported with at least this many (ORB-SLAM: lost below 30 inliers)
   std::filesystem::path outputJson;   ///< optional, written atomically
+  /// Optional PNG: the counts of the pairs one frame apart against the first frame's index, and minMatches.
+  std::filesystem::path outputPlot;
   bool progress = true;
 
   /// Throws pslam::Error naming the option.
@@ -54,8 +56,8 @@ struct MatchOracleResult {
 };
 
 /// Throws pslam::Error naming the file or option on bad input: no depth, no ground truth for a frame, lens
-/// distortion (the projection is a pinhole one), an unreadable config. The JSON is written only when the run
-/// completes.
+/// distortion (the projection is a pinhole one), an unreadable config. The JSON and the plot are written only when
+/// the run completes (both or neither).
 MatchOracleResult runMatchOracle(const MatchOracleOptions& options);
 
 }  // namespace pslam::features
