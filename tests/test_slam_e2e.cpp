@@ -269,6 +269,26 @@ TEST(SlamE2E, ThreadedModeTracksWithEitherWaitPolicy) {
   }
 }
 
+// [System] weakKeyFrameInliers: in the live policy a keyframe made at fewer local-map inliers holds tracking until
+// its new points are in the map. With the threshold above any count, every keyframe (the two of the initialization
+// included) waits once, and the run tracks as the live one does; at 0 (the default of this config) none waits.
+TEST(SlamE2E, ThreadedLiveKeyFramesAtFewInliersWaitForTheirPoints) {
+  const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
+  const fs::path out = tempRoot() / "threaded_weak_keyframes";
+  const auto s = runSlam(out, 1, true, roomRawlog(), kConfig, {"System.weakKeyFrameInliers=1000000"});
+  ASSERT_TRUE(s.initialized());
+  EXPECT_EQ(s.framesLost, 0u);
+  EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
+  const auto report = nlohmann::json::parse(readText(out / "report.json"));
+  std::size_t keyFrameFrames = 0;
+  for (const auto& f : report["frames"]) keyFrameFrames += f["keyframe"].get<bool>();
+  ASSERT_TRUE(report["timings"].contains("wait_for_weak_keyframe"));
+  EXPECT_EQ(report["timings"]["wait_for_weak_keyframe"]["count"].get<std::size_t>(), keyFrameFrames);
+  const fs::path plain = tempRoot() / "threaded_plain_keyframes";
+  runSlam(plain, 1, true, roomRawlog(), kConfig, {"System.weakKeyFrameInliers=0"});
+  EXPECT_FALSE(nlohmann::json::parse(readText(plain / "report.json"))["timings"].contains("wait_for_weak_keyframe"));
+}
+
 // --realtime hands frames over at their timestamps (here 2 s of a 30 fps clip): the run lasts at least the clip's
 // duration and is otherwise a normal run.
 TEST(SlamE2E, RealtimePacingTakesTheClipsDuration) {

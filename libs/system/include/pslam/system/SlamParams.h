@@ -36,6 +36,11 @@ struct SystemParams {
   /// needed keyframe makes it wait) or "afterNewPoints" (each frame after a keyframe waits for that keyframe's
   /// triangulation and fusion; its local BA overlaps). doc/performance.md compares them.
   std::string threadedTracking = "live";
+  /// Threaded "live": a keyframe made by a frame with fewer local-map inliers than this holds tracking until its
+  /// new points are in the map (as "afterNewPoints" does for every keyframe); 0 = never. 60, twice ORB-SLAM's 30
+  /// inliers of a tracked frame. KITTI 00 threaded, 90 runs with 60 or 80 against 90 with 0: 4 runs above 1 m ATE
+  /// and 2 lost the camera, against 13 and 4 (doc/performance.md).
+  int weakKeyFrameInliers = 60;
   std::string poseSolver = "full6dof";
   std::string initializer = "twoView";
 
@@ -46,6 +51,8 @@ struct SystemParams {
     PSLAM_FIELD(v, threadedTracking, oneOf({"live", "afterNewPoints"}),
                 "threaded: live (keyframes when mapping is idle or after maxFrames) | afterNewPoints (wait for each "
                 "keyframe's points)");
+    PSLAM_FIELD(v, weakKeyFrameInliers, atLeast(0),
+                "threaded live: a keyframe made at fewer inliers waits for its new points (0 = never)");
     PSLAM_FIELD(v, poseSolver, nonEmpty, "tracking pose solver (full6dof = motion-only BA)");
     PSLAM_FIELD(v, initializer, nonEmpty,
                 "map initializer (twoView = H/F two-view initialization; manhattan = §4.4.1, H/F without a Manhattan frame)");
