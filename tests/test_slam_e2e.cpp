@@ -271,7 +271,7 @@ TEST(SlamE2E, ThreadedModeTracksWithEitherWaitPolicy) {
 
 // [System] weakKeyFrameInliers: in the live policy a keyframe made at fewer local-map inliers holds tracking until
 // its new points are in the map. With the threshold above any count, every keyframe (the two of the initialization
-// included) waits once, and the run tracks as the live one does; at 0 (the default of this config) none waits.
+// included) waits once, and the run tracks as the live one does; at 0 none waits.
 TEST(SlamE2E, ThreadedLiveKeyFramesAtFewInliersWaitForTheirPoints) {
   const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
   const fs::path out = tempRoot() / "threaded_weak_keyframes";

@@ -4,10 +4,10 @@
 
 #include <filesystem>
 #include <iostream>
-#include <unistd.h>
 
 #include "pslam/datasets/Dataset2RawlogApp.h"
 #include "pslam/features/MatchOracleApp.h"
+#include "pslam_test/TestSupport.h"
 
 namespace fs = std::filesystem;
 using namespace pslam;
@@ -15,12 +15,8 @@ using namespace pslam;
 TEST(DataMatchOracleTum, CabinetNeighboursShareCorrespondencesFewFoundWithoutAPrediction) {
   const fs::path folder = fs::path(PRIORSLAM_SHARED_DATA_DIR) / "tum_rgbd/rgbd_dataset_freiburg3_cabinet_every20th";
   if (!fs::is_directory(folder)) GTEST_SKIP() << "shared data not found: " << folder;
-  const fs::path tmp = fs::temp_directory_path() / ("pslam_match_oracle_tum_" + std::to_string(::getpid()));
-  fs::create_directories(tmp);
-  struct Cleanup {
-    fs::path p;
-    ~Cleanup() { fs::remove_all(p); }
-  } cleanup{tmp};
+  const test_support::TempDir dir("pslam_match_oracle_tum");
+  const fs::path& tmp = dir.path;
 
   datasets::Dataset2RawlogOptions conv;
   conv.input = folder;

@@ -622,15 +622,17 @@ TrackResult System::track(const datasets::Frame& input) {
     }
   }
 
-  // Threaded: the frame needed a keyframe that mapping was too busy to take, and tracks too few of the reference
-  // keyframe's points to go on without one ([Tracking] keyFrames.waitRatio): tracking waits here until mapping is
-  // idle, so the next frame can make that keyframe (its BA was asked to stop above).
+  // Threaded live: a keyframe made on weak tracking ([System] weakKeyFrameInliers) holds tracking until its new
+  // points are in the map; the next frames would otherwise be tracked without them and fall further.
   if (s.threaded && s.mappingEnabled && !res.newKeyFrames.empty() && s.params.system.threadedTracking == "live" &&
       res.report.inliers < s.params.system.weakKeyFrameInliers) {
     ScopedStage wait(s.trackingTimings, "wait_for_weak_keyframe");
     std::unique_lock<std::mutex> lk(s.queueMutex);
     s.queueCv.wait(lk, [&] { return s.pointsReadySeq >= s.queuedSeq; });
   }
+  // Threaded: the frame needed a keyframe that mapping was too busy to take, and tracks too few of the reference
+  // keyframe's points to go on without one ([Tracking] keyFrames.waitRatio): tracking waits here until mapping is
+  // idle, so the next frame can make that keyframe (its BA was asked to stop above).
   if (s.threaded && res.keyFrameUrgent && s.mappingEnabled) {
     ScopedStage wait(s.trackingTimings, "wait_for_mapping_urgent");
     s.waitForMapping(true);
