@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
   std::string deltaUnit = "frames", configPath, configSection = "slam_eval", jsonPath, plotDir, gtTimes, estTimes;
   std::string depthSamples, depthRawlog;
   double maxDiff = defaults.association.maxTimeDifference, offset = 0.0, delta = 1.0, relTol = 0.1, tau = 0.1;
-  std::size_t alignFirst = 0;
+  std::size_t alignFirst = 0, segments = 0;
   bool allPairs = false, noRpe = false, drScale = false;
   cli.add_option("ground_truth", gtPath, "ground-truth trajectory (TUM, KITTI or EuRoC csv)")->required();
   cli.add_option("estimate", estPath, "estimated trajectory (TUM, KITTI or EuRoC csv)")->required();
@@ -56,6 +56,10 @@ int main(int argc, char** argv) {
                   ->check(cliCheck<double>(atLeast(0)))
                   ->capture_default_str();
   auto* oNoRpe = cli.add_flag("--no-rpe", noRpe, "skip RPE");
+  auto* oSegments = cli.add_option("--segments", segments,
+                                   "also split the pairs into N consecutive segments, each aligned on its own (the "
+                                   "alignment's mode; sim3 for none): per-segment scale and ATE show scale drift")
+                        ->check(cliCheck<std::size_t>());
   cli.add_option("--depths", depthSamples, "map-point depths `timestamp u v depth` for DR");
   cli.add_option("--rawlog", depthRawlog, "rawlog whose DEPTH channel gives the GT depth for DR");
   auto* oTau = cli.add_option("--tau", tau, "DR relative depth error threshold (thesis eq. 2.104, Tateno et al.)")
@@ -84,6 +88,7 @@ int main(int argc, char** argv) {
     if (oAll->count()) o.rpeOptions.allPairs = allPairs;
     if (oTol->count()) o.rpeOptions.relativeTolerance = relTol;
     if (oNoRpe->count()) o.rpe = !noRpe;
+    if (oSegments->count()) o.segments = segments;
     if (alignFrom.size() == 2) {
       o.alignFromGt = alignFrom[0];
       o.alignFromEst = alignFrom[1];

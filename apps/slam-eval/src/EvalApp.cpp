@@ -1,5 +1,6 @@
 #include "pslam/eval/EvalApp.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -47,6 +48,7 @@ nlohmann::json EvalOptions::toJson() const {
           {"rpe_all_pairs", rpeOptions.allPairs},
           {"rpe_relative_tolerance", rpeOptions.relativeTolerance},
           {"rotation_error", rotationError},
+          {"segments", segments},
           {"dr_samples", depthSamples.string()},
           {"dr_rawlog", depthRawlog.string()},
           {"dr_tau", depthRatio.tau},
@@ -143,6 +145,10 @@ EvalResult EvalApp::evaluateImpl(const Trajectory& gt, const Trajectory& est, co
   r.ate = computeAte(r.gtAssociated, r.estAligned);
   if (options_.rpe) r.rpe = computeRpe(r.gtAssociated, r.estAligned, options_.rpeOptions);
   if (options_.rotationError) r.rotationError = computeRotationError(r.gtAssociated, r.estAligned);
+  if (options_.segments > 0) {
+    const AlignmentMode mode = options_.alignment == AlignmentMode::None ? AlignmentMode::Sim3 : options_.alignment;
+    r.segments = alignSegments(r.gtAssociated, estAssociated, mode, options_.segments);
+  }
   if (!options_.depthSamples.empty()) {
     DepthRatioOptions dr = options_.depthRatio;
     if (options_.depthUseAlignmentScale) dr.scale *= r.alignment.scale;
@@ -193,6 +199,31 @@ std::string EvalApp::formatTable(const EvalResult& r) const {
     out << "DR (tau " << options_.depthRatio.tau << "): " << buf << " (" << r.depthRatio->inliers << " / "
         << r.depthRatio->evaluated << " points, " << r.depthRatio->withoutGroundTruth << " without GT depth)\n";
   }
+  if (!r.segments.empty()) {
+    const AlignmentMode mode = options_.alignment == AlignmentMode::None ? AlignmentMode::Sim3 : options_.alignment;
+    out << "segments, each aligned on its own (" << toString(mode) << "):\n";
+    std::snprintf(buf, sizeof(buf), "%7s %13s %18s %9s %10s %10s", "segment", "pairs", "time [s]", "path [m]",
+                  "scale", "ATE [m]");
+    out << buf << "\n";
+    double lo = r.segments.front().alignment.scale, hi = lo;
+    const double t0 = r.gtAssociated.front().timestamp;
+    for (std::size_t k = 0; k < r.segments.size(); ++k) {
+      const SegmentAlignment& g = r.segments[k];
+      char pairs[64], span[64], row[256];
+      std::snprintf(pairs, sizeof(pairs), "%zu-%zu", g.first, g.last);
+      std::snprintf(span, sizeof(span), "%.2f-%.2f", g.startTime - t0, g.endTime - t0);
+      std::snprintf(row, sizeof(row), "%7zu %13s %18s %9.3f %10.6f %10.6f", k + 1, pairs, span, g.pathLength,
+                    g.alignment.scale, g.ate.rmse);
+      out << row << "\n";
+      lo = std::min(lo, g.alignment.scale);
+      hi = std::max(hi, g.alignment.scale);
+    }
+    if (mode == AlignmentMode::Sim3) {
+      std::snprintf(buf, sizeof(buf), "segment scales %.6f-%.6f: largest / smallest - 1 = %.2f %%", lo, hi,
+                    100.0 * (hi / lo - 1.0));
+      out << buf << "\n";
+    }
+  }
   return out.str();
 }
 
@@ -214,6 +245,10 @@ nlohmann::json EvalApp::toJson(const EvalResult& r) const {
   }
   if (r.rotationError) j["re_deg"] = r.rotationError->stats.toJson();
   if (r.depthRatio) j["dr"] = r.depthRatio->toJson();
+  if (!r.segments.empty()) {
+    j["segments"] = nlohmann::json::array();
+    for (const SegmentAlignment& g : r.segments) j["segments"].push_back(g.toJson());
+  }
   if (!r.warnings.empty()) j["warnings"] = r.warnings;
   return j;
 }

@@ -62,6 +62,41 @@ TEST(EvalApp, EvaluatesFilesAndWritesJsonAndPlots) {
   for (const auto& p : pngs) EXPECT_FALSE(cv::imread(p.string()).empty()) << p;
 }
 
+TEST(EvalApp, SegmentsShowWhereTheScaleDrifts) {
+  // The estimate's scale is 1/3 on the first half of the path and 1/4 on the second (a map whose scale drifted):
+  // one Sim(3) leaves an ATE, each half aligned on its own none, at its own scale.
+  const Trajectory gt = makeSpiral(200);
+  Trajectory est = monocularEstimate(gt);
+  const Eigen::Vector3d join = est[50].position;
+  for (std::size_t k = 50; k < est.size(); ++k) est[k].position = join + (est[k].position - join) * 0.75;
+  EvalOptions o;
+  o.rpe = false;
+  o.segments = 2;
+  const EvalApp app(o);
+  const EvalResult r = app.evaluate(gt, est);
+  EXPECT_GT(r.ate.stats.rmse, 0.01);
+  ASSERT_EQ(r.segments.size(), 2u);
+  EXPECT_NEAR(r.segments[0].alignment.scale, 3.0, 1e-9);
+  EXPECT_NEAR(r.segments[1].alignment.scale, 4.0, 1e-9);
+  EXPECT_LT(r.segments[0].ate.rmse, 1e-9);
+  EXPECT_LT(r.segments[1].ate.rmse, 1e-9);
+  const std::string table = app.formatTable(r);
+  EXPECT_NE(table.find("segments, each aligned on its own (sim3)"), std::string::npos) << table;
+  EXPECT_NE(table.find("largest / smallest - 1 = 33.33 %"), std::string::npos) << table;
+  const nlohmann::json j = app.toJson(r);
+  ASSERT_EQ(j["segments"].size(), 2u);
+  EXPECT_EQ(j["segments"][1]["first_pair"].get<int>(), 50);
+  EXPECT_EQ(j["segments"][1]["last_pair"].get<int>(), 99);
+  EXPECT_NEAR(j["segments"][1]["alignment"]["scale"].get<double>(), 4.0, 1e-9);
+  EXPECT_EQ(j["options"]["segments"].get<int>(), 2);
+  // Without the option: no segments in the table or the JSON.
+  const EvalApp plain(EvalOptions{});
+  const EvalResult p = plain.evaluate(gt, est);
+  EXPECT_TRUE(p.segments.empty());
+  EXPECT_EQ(plain.formatTable(p).find("segments"), std::string::npos);
+  EXPECT_FALSE(plain.toJson(p).contains("segments"));
+}
+
 TEST(EvalApp, SE3LeavesTheScaleErrorAndKittiFilesAreIndexed) {
   TempDir d("app_se3");
   const Trajectory gt = makeSpiral(50);

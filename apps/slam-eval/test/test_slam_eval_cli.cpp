@@ -68,6 +68,27 @@ TEST(SlamEvalCli, EvaluatesAndWritesOutputs) {
   fs::remove_all(d);
 }
 
+TEST(SlamEvalCli, SegmentsTableAndItsBadValues) {
+  const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_seg_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  pslam::writeTumTrajectory(d / "gt.txt", spiral(90, 1.0));
+  pslam::writeTumTrajectory(d / "est.txt", spiral(90, 0.25));
+  const std::string files = (d / "gt.txt").string() + " " + (d / "est.txt").string();
+  const CliRun r = runCli(files + " --no-rpe --segments 3");
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("segments, each aligned on its own (sim3)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("60-89"), std::string::npos) << r.output;  // the third segment's pairs
+  EXPECT_NE(r.output.find("largest / smallest - 1 = 0.00 %"), std::string::npos) << r.output;
+  // 90 pairs in 31 segments leave fewer than 3 per segment; a negative count is no count.
+  const CliRun tooMany = runCli(files + " --segments 31");
+  EXPECT_EQ(tooMany.exitCode, 1) << tooMany.output;
+  EXPECT_NE(tooMany.output.find("fewer than 3 per segment"), std::string::npos) << tooMany.output;
+  const CliRun negative = runCli(files + " --segments -2");
+  EXPECT_NE(negative.exitCode, 0) << negative.output;
+  fs::remove_all(d);
+}
+
 TEST(SlamEvalCli, AlignFromAnotherPair) {
   const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_af_" + std::to_string(::getpid()));
   fs::remove_all(d);

@@ -91,6 +91,48 @@ Alignment alignTrajectories(const Trajectory& gt, const Trajectory& est, Alignme
   return a;
 }
 
+nlohmann::json SegmentAlignment::toJson() const {
+  return {{"first_pair", first},     {"last_pair", last},          {"start_time", startTime},
+          {"end_time", endTime},     {"path_length_m", pathLength}, {"alignment", alignment.toJson()},
+          {"ate", ate.toJson()}};
+}
+
+std::vector<SegmentAlignment> alignSegments(const Trajectory& gt, const Trajectory& est, AlignmentMode mode,
+                                            std::size_t segments) {
+  if (gt.size() != est.size())
+    throw Error("segments: " + std::to_string(gt.size()) + " ground-truth poses but " + std::to_string(est.size()) +
+                " estimated poses");
+  if (segments == 0) throw Error("segments: at least one segment is needed");
+  const std::size_t n = gt.size(), size = n / segments, longer = n % segments;
+  if (size < 3)
+    throw Error("segments: " + std::to_string(n) + " associated poses in " + std::to_string(segments) +
+                " segments leave fewer than 3 per segment");
+  std::vector<SegmentAlignment> out;
+  std::size_t begin = 0;
+  for (std::size_t k = 0; k < segments; ++k) {
+    const std::size_t end = begin + size + (k < longer ? 1 : 0);
+    const Trajectory g(gt.begin() + static_cast<std::ptrdiff_t>(begin), gt.begin() + static_cast<std::ptrdiff_t>(end));
+    const Trajectory e(est.begin() + static_cast<std::ptrdiff_t>(begin),
+                       est.begin() + static_cast<std::ptrdiff_t>(end));
+    SegmentAlignment seg;
+    seg.first = begin;
+    seg.last = end - 1;
+    seg.startTime = g.front().timestamp;
+    seg.endTime = g.back().timestamp;
+    for (std::size_t i = 1; i < g.size(); ++i) seg.pathLength += (g[i].position - g[i - 1].position).norm();
+    try {
+      seg.alignment = alignTrajectories(g, e, mode);
+    } catch (const Error& err) {
+      throw Error("segment " + std::to_string(k + 1) + " of " + std::to_string(segments) + " (pairs " +
+                  std::to_string(seg.first) + "-" + std::to_string(seg.last) + "): " + err.what());
+    }
+    seg.ate = computeAte(g, applyAlignment(e, seg.alignment)).stats;
+    out.push_back(std::move(seg));
+    begin = end;
+  }
+  return out;
+}
+
 Trajectory applyAlignment(const Trajectory& trajectory, const Alignment& alignment) {
   Trajectory out = trajectory;
   const Eigen::Quaterniond qAlign(alignment.rotation);

@@ -88,6 +88,61 @@ TEST(Alignment, RejectsTooFewAndDegeneratePoses) {
   EXPECT_DOUBLE_EQ(none.scale, 1.0);
 }
 
+TEST(Segments, EachSegmentRecoversItsOwnScaleWhereOneAlignmentCannot) {
+  // An estimate whose scale jumps between three stretches of the path (a monocular map's scale drift, made
+  // piecewise): 1.5 on pairs 0-33, 2.0 on 34-66, 2.5 on 67-99 (100 = 34 + 33 + 33: the first segment is the longer).
+  const Trajectory gt = makeSpiral(100);
+  Trajectory est;
+  const double scales[] = {1.5, 2.0, 2.5};
+  const Eigen::Vector3d shifts[] = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0.4, 0, 0), Eigen::Vector3d(0, 0.7, 0)};
+  for (std::size_t k = 0; k < gt.size(); ++k) {
+    const int part = k < 34 ? 0 : (k < 67 ? 1 : 2);
+    est.push_back(distort(Trajectory{gt[k]}, scales[part], kR, kT + shifts[part]).front());
+  }
+  const double whole = computeAte(gt, applyAlignment(est, alignTrajectories(gt, est, AlignmentMode::Sim3))).stats.rmse;
+  EXPECT_GT(whole, 0.05);  // one Sim(3) cannot fit three scales
+
+  const std::vector<SegmentAlignment> seg = alignSegments(gt, est, AlignmentMode::Sim3, 3);
+  ASSERT_EQ(seg.size(), 3u);
+  const std::size_t firsts[] = {0, 34, 67}, lasts[] = {33, 66, 99};
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(seg[k].first, firsts[k]);
+    EXPECT_EQ(seg[k].last, lasts[k]);
+    EXPECT_NEAR(seg[k].alignment.scale, scales[k], 1e-9);
+    EXPECT_LT(seg[k].ate.rmse, 1e-9);
+    EXPECT_EQ(seg[k].ate.count, lasts[k] - firsts[k] + 1);
+    EXPECT_DOUBLE_EQ(seg[k].startTime, gt[firsts[k]].timestamp);
+    EXPECT_DOUBLE_EQ(seg[k].endTime, gt[lasts[k]].timestamp);
+    double length = 0;
+    for (std::size_t i = firsts[k] + 1; i <= lasts[k]; ++i) length += (gt[i].position - gt[i - 1].position).norm();
+    EXPECT_NEAR(seg[k].pathLength, length, 1e-12);
+  }
+  // Segments that straddle the jumps do not fit: 4 segments of 25 pairs, the second and third hold a jump.
+  const std::vector<SegmentAlignment> four = alignSegments(gt, est, AlignmentMode::Sim3, 4);
+  EXPECT_LT(four[0].ate.rmse, 1e-9);
+  EXPECT_GT(four[1].ate.rmse, 1e-3);
+  EXPECT_GT(four[2].ate.rmse, 1e-3);
+  EXPECT_LT(four[3].ate.rmse, 1e-9);
+  // One segment is the whole run.
+  EXPECT_NEAR(alignSegments(gt, est, AlignmentMode::Sim3, 1).front().ate.rmse, whole, 1e-12);
+}
+
+TEST(Segments, RejectsNoSegmentTooShortSegmentsAndNamesTheDegenerateOne) {
+  const Trajectory gt = makeSpiral(12);
+  EXPECT_THROW(alignSegments(gt, gt, AlignmentMode::Sim3, 0), Error);
+  EXPECT_NO_THROW(alignSegments(gt, gt, AlignmentMode::Sim3, 4));  // 3 pairs each
+  EXPECT_THROW(alignSegments(gt, gt, AlignmentMode::Sim3, 5), Error);
+  EXPECT_THROW(alignSegments(gt, Trajectory(gt.begin(), gt.begin() + 6), AlignmentMode::Sim3, 2), Error);
+  Trajectory est = gt;
+  for (std::size_t k = 6; k < 12; ++k) est[k].position = Eigen::Vector3d(double(k), 0, 0);  // collinear
+  try {
+    alignSegments(gt, est, AlignmentMode::Sim3, 2);
+    FAIL() << "a collinear segment must be refused";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("segment 2 of 2 (pairs 6-11)"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Ate, NoiseOfKnownSizeGivesTheExpectedRmse) {
   // Isotropic Gaussian noise sigma per axis: E[|e|^2] = 3 sigma^2, so the RMSE is about sqrt(3) sigma. The
   // alignment absorbs ~6 of 3N degrees of freedom: expected RMSE sqrt(3 sigma^2 (N - 2) / N) ~ 0.99933 *

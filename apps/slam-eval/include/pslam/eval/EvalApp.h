@@ -55,6 +55,9 @@ struct EvalOptions {
   bool rpe = true;
   RpeOptions rpeOptions;
   bool rotationError = true;
+  /// > 0: the pairs also split into this many consecutive segments, each aligned on its own (alignSegments): the
+  /// per-segment Sim(3) scales show scale drift along the path.
+  std::size_t segments = 0;
   std::filesystem::path depthSamples;  ///< DR input (`timestamp u v depth`); empty = no DR
   std::filesystem::path depthRawlog;   ///< rawlog with the DEPTH channel
   DepthRatioOptions depthRatio;
@@ -86,6 +89,7 @@ struct EvalOptions {
     PSLAM_KEY(v, "rpe_relative_tolerance", rpeOptions.relativeTolerance, atLeast(0),
               "[m] RPE delta tolerance (all pairs, unit m)");
     PSLAM_KEY(v, "rotation_error", rotationError, anyValue, "compute RE (eq. 4.8)");
+    PSLAM_KEY(v, "segments", segments, anyValue, "also align this many consecutive segments on their own (0 = off)");
     PSLAM_KEY(v, "dr_use_alignment_scale", depthUseAlignmentScale,
               satisfies([this](bool b) { return !b || alignment == AlignmentMode::Sim3; }, "needs alignment = sim3"),
               "multiply estimated depths by the Sim(3) scale");
@@ -110,6 +114,7 @@ struct EvalResult {
   std::optional<RpeResult> rpe;
   std::optional<RotationErrorResult> rotationError;
   std::optional<DepthRatioResult> depthRatio;
+  std::vector<SegmentAlignment> segments;  ///< options.segments > 0: each segment aligned on its own
   /// Notes about the inputs, e.g. poses with the timestamp of the previous one (kept, as evo keeps them).
   std::vector<std::string> warnings;
 };

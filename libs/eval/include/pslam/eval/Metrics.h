@@ -56,6 +56,25 @@ struct Alignment {
 Alignment alignTrajectories(const Trajectory& gt, const Trajectory& est, AlignmentMode mode,
                             std::size_t firstN = 0);
 
+/// One run of consecutive associated pairs aligned on its own (alignSegments).
+struct SegmentAlignment {
+  std::size_t first = 0, last = 0;  ///< pair indices, both included
+  double startTime = 0, endTime = 0;  ///< ground-truth stamps of the first and the last pair
+  double pathLength = 0;            ///< ground-truth path length over the segment, metres
+  Alignment alignment;              ///< the segment's own; with Sim(3) its scale is the map's scale there
+  ErrorStatistics ate;              ///< ATE after the segment's own alignment
+  nlohmann::json toJson() const;
+};
+
+/// The associated pairs split into `segments` consecutive runs of equal size (the first n % segments of them one
+/// pair longer), each aligned with `mode` and its ATE taken after that alignment. When one alignment of the whole
+/// run leaves a large ATE, small segment ATEs with Sim(3) scales that differ from segment to segment say the error
+/// is the scale drifting along the path (a monocular map's weakest direction), not local error. Throws pslam::Error
+/// if `segments` is 0, a segment would hold fewer than 3 pairs, or a segment's alignment is undetermined (naming
+/// the segment).
+std::vector<SegmentAlignment> alignSegments(const Trajectory& gt, const Trajectory& est, AlignmentMode mode,
+                                            std::size_t segments);
+
 /// Applies the alignment to every pose of `trajectory` (positions s R p + t, orientations R q).
 Trajectory applyAlignment(const Trajectory& trajectory, const Alignment& alignment);
 
