@@ -264,6 +264,7 @@ std::vector<std::string> EvalApp::plotFileNames() const {
     names.push_back("eval_rpe_over_time.png");
     names.push_back("eval_rpe_rot_over_time.png");
   }
+  if (options_.segments > 0) names.push_back("eval_segments.png");
   return names;
 }
 
@@ -342,6 +343,23 @@ std::vector<std::pair<std::string, Plot>> EvalApp::makePlots(const EvalResult& r
     rr.addLine(tp, r.rpe->rotationErrorsDeg, "RPE r", colors::purple(), 2);
     rr.addLine({tp.front(), tp.back()}, {r.rpe->rotation.rmse, r.rpe->rotation.rmse}, "rmse", colors::red(), 1);
     plots.emplace_back("eval_rpe_rot_over_time.png", std::move(rr));
+  }
+  if (!r.segments.empty()) {
+    // Each segment at its middle: with Sim(3), its scale against the whole run's (the scale drift along the path);
+    // with SE(3), where every scale is 1, its own ATE.
+    const bool sim3 = options_.alignment != AlignmentMode::SE3;
+    std::vector<double> mid, value;
+    for (const SegmentAlignment& g : r.segments) {
+      mid.push_back(0.5 * (g.startTime + g.endTime) - r.gtAssociated.front().timestamp);
+      value.push_back(sim3 ? 100.0 * (g.alignment.scale / r.alignment.scale - 1.0) : g.ate.rmse);
+    }
+    Plot sg(titlePrefix + (sim3 ? "Segment scale against the whole run's (each segment Sim(3) aligned on its own)"
+                                : "Segment ATE (each segment SE(3) aligned on its own)"),
+            timeLabel + " (segment middle)", sim3 ? "scale / whole-run scale - 1 [%]" : "segment ATE [m]");
+    sg.addLine(mid, value, sim3 ? "segment scale" : "segment ATE", colors::blue(), 2);
+    sg.addScatter(mid, value, "", colors::blue(), 5);
+    if (sim3) sg.addLine({mid.front(), mid.back()}, {0.0, 0.0}, "whole run", colors::grey(), 1);
+    plots.emplace_back("eval_segments.png", std::move(sg));
   }
   return plots;
 }

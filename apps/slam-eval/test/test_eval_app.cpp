@@ -89,6 +89,12 @@ TEST(EvalApp, SegmentsShowWhereTheScaleDrifts) {
   EXPECT_EQ(j["segments"][1]["last_pair"].get<int>(), 99);
   EXPECT_NEAR(j["segments"][1]["alignment"]["scale"].get<double>(), 4.0, 1e-9);
   EXPECT_EQ(j["options"]["segments"].get<int>(), 2);
+  TempDir d("segments");
+  const auto pngs = app.writePlots(r, d.path);
+  ASSERT_EQ(pngs.size(), 3u);  // top view, ATE over time, segments (no RPE)
+  EXPECT_EQ(pngs.back().filename(), "eval_segments.png");
+  EXPECT_FALSE(cv::imread(pngs.back().string()).empty());
+  EXPECT_EQ(app.plotFileNames().back(), "eval_segments.png");
   // Without the option: no segments in the table or the JSON.
   const EvalApp plain(EvalOptions{});
   const EvalResult p = plain.evaluate(gt, est);
