@@ -275,15 +275,21 @@ TEST(SlamE2E, ThreadedModeTracksWithEitherWaitPolicy) {
 TEST(SlamE2E, ThreadedLiveKeyFramesAtFewInliersWaitForTheirPoints) {
   const Trajectory gt = readTumTrajectory(roomRawlog().parent_path() / "room_groundtruth.txt");
   const fs::path out = tempRoot() / "threaded_weak_keyframes";
-  const auto s = runSlam(out, 1, true, roomRawlog(), kConfig, {"System.weakKeyFrameInliers=1000000"});
-  ASSERT_TRUE(s.initialized());
-  EXPECT_EQ(s.framesLost, 0u);
-  EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
-  const auto report = nlohmann::json::parse(readText(out / "report.json"));
-  std::size_t keyFrameFrames = 0;
-  for (const auto& f : report["frames"]) keyFrameFrames += f["keyframe"].get<bool>();
-  ASSERT_TRUE(report["timings"].contains("wait_for_weak_keyframe"));
-  EXPECT_EQ(report["timings"]["wait_for_weak_keyframe"]["count"].get<std::size_t>(), keyFrameFrames);
+  // Taken after the next frame's extraction (the default) or at the end of the keyframe's own frame: once per
+  // keyframe either way, the last one's by finish().
+  for (const char* after : {"true", "false"}) {
+    SCOPED_TRACE(std::string("waitAfterNextExtraction=") + after);
+    const auto s = runSlam(out, 1, true, roomRawlog(), kConfig,
+                           {"System.weakKeyFrameInliers=1000000", std::string("System.waitAfterNextExtraction=") + after});
+    ASSERT_TRUE(s.initialized());
+    EXPECT_EQ(s.framesLost, 0u);
+    EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
+    const auto report = nlohmann::json::parse(readText(out / "report.json"));
+    std::size_t keyFrameFrames = 0;
+    for (const auto& f : report["frames"]) keyFrameFrames += f["keyframe"].get<bool>();
+    ASSERT_TRUE(report["timings"].contains("wait_for_weak_keyframe"));
+    EXPECT_EQ(report["timings"]["wait_for_weak_keyframe"]["count"].get<std::size_t>(), keyFrameFrames);
+  }
   const fs::path plain = tempRoot() / "threaded_plain_keyframes";
   runSlam(plain, 1, true, roomRawlog(), kConfig, {"System.weakKeyFrameInliers=0"});
   EXPECT_FALSE(nlohmann::json::parse(readText(plain / "report.json"))["timings"].contains("wait_for_weak_keyframe"));

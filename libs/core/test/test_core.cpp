@@ -1,8 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
@@ -141,4 +143,21 @@ TEST(StageTimings, PercentilesAndSummary) {
   const auto s = t.summary();
   EXPECT_EQ(s["a"]["count"].get<int>(), 2);
   EXPECT_DOUBLE_EQ(s["a"]["median_ms"].get<double>(), 2.0);
+}
+
+TEST(StageTimings, ScopedStageLeavesOutWhatItIsToldToExclude) {
+  // A scope of about 100 ms of which all but 5 ms are excluded (a wait timed on its own) records about 5 ms; a
+  // sleep only runs at least as long as asked, so the bounds are one-sided where they must be.
+  StageTimings t;
+  double outer = 0.0;
+  {
+    ScopedStage stage(t, "outer");
+    const auto start = std::chrono::steady_clock::now();
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    outer = msSince(start);
+    stage.exclude(outer - 5.0);
+  }
+  const double recorded = t.samples().at("outer").front();
+  EXPECT_GE(recorded, 5.0);
+  EXPECT_LT(recorded, outer);  // without the exclusion it would be at least `outer`
 }

@@ -414,6 +414,22 @@ struct System::Impl {
   std::deque<std::pair<int, QueuedKeyFrame>> queue;  ///< (generation, keyframe)
   std::unique_lock<std::mutex>* mappingLock = nullptr;  ///< the mapping thread's hold of mapMutex
   bool busy = false;
+  /// Threaded, [System] waitAfterNextExtraction: the wait the last frame left for this one (tracking thread only).
+  enum class PendingWait { None, WeakKeyFrame, Urgent };
+  PendingWait pendingWait = PendingWait::None;
+
+  /// The waits tracking takes for the mapping thread after a frame: a weak keyframe's new points in the map
+  /// (wait_for_weak_keyframe), or mapping idle for an urgent keyframe (wait_for_mapping_urgent).
+  void waitFor(PendingWait what) {
+    if (what == PendingWait::WeakKeyFrame) {
+      ScopedStage wait(trackingTimings, "wait_for_weak_keyframe");
+      std::unique_lock<std::mutex> lk(queueMutex);
+      queueCv.wait(lk, [&] { return pointsReadySeq >= queuedSeq; });
+    } else if (what == PendingWait::Urgent) {
+      ScopedStage wait(trackingTimings, "wait_for_mapping_urgent");
+      waitForMapping(true);
+    }
+  }
   /// Threaded: a loop's global BA on its own thread (LoopCloser::setAsynchronousGlobalBa), guarded by queueMutex.
   enum class GlobalBaState { None, Running, Ready };
   GlobalBaState globalBa = GlobalBaState::None;
@@ -524,6 +540,14 @@ TrackResult System::track(const datasets::Frame& input) {
       frame = tracking::makeFrame(dropSemantic ? withoutSemantic : input, s.camera, s.tracker->initialized() ? s.extractor : s.initExtractor,
                                   ctx + " (t=" + std::to_string(input.timestamp) + ")");
     }
+    if (s.pendingWait != Impl::PendingWait::None) {
+      // The last frame's wait for mapping, taken now that this frame's features are extracted (the extraction
+      // overlapped with the mapping waited for); not part of this frame's tracking time.
+      const auto waitStart = std::chrono::steady_clock::now();
+      s.waitFor(s.pendingWait);
+      s.pendingWait = Impl::PendingWait::None;
+      total.exclude(msSince(waitStart));
+    }
     std::optional<manhattan::ManhattanEstimate> mf;
     const bool hasNormals = !frame.normals.empty();
     if (s.manhattanTracker) {
@@ -624,19 +648,19 @@ TrackResult System::track(const datasets::Frame& input) {
 
   // Threaded live: a keyframe made on weak tracking ([System] weakKeyFrameInliers) holds tracking until its new
   // points are in the map; the next frames would otherwise be tracked without them and fall further.
+  Impl::PendingWait wait = Impl::PendingWait::None;
   if (s.threaded && s.mappingEnabled && !res.newKeyFrames.empty() && s.params.system.threadedTracking == "live" &&
-      res.report.inliers < s.params.system.weakKeyFrameInliers) {
-    ScopedStage wait(s.trackingTimings, "wait_for_weak_keyframe");
-    std::unique_lock<std::mutex> lk(s.queueMutex);
-    s.queueCv.wait(lk, [&] { return s.pointsReadySeq >= s.queuedSeq; });
-  }
+      res.report.inliers < s.params.system.weakKeyFrameInliers)
+    wait = Impl::PendingWait::WeakKeyFrame;
   // Threaded: the frame needed a keyframe that mapping was too busy to take, and tracks too few of the reference
-  // keyframe's points to go on without one ([Tracking] keyFrames.waitRatio): tracking waits here until mapping is
-  // idle, so the next frame can make that keyframe (its BA was asked to stop above).
-  if (s.threaded && res.keyFrameUrgent && s.mappingEnabled) {
-    ScopedStage wait(s.trackingTimings, "wait_for_mapping_urgent");
-    s.waitForMapping(true);
-  }
+  // keyframe's points to go on without one ([Tracking] keyFrames.waitRatio): tracking waits until mapping is idle,
+  // so the next frame can make that keyframe (its BA was asked to stop above).
+  if (s.threaded && res.keyFrameUrgent && s.mappingEnabled) wait = Impl::PendingWait::Urgent;
+  // Both waits are for the next frame's tracking: taken here, or after the next frame's extraction.
+  if (s.params.system.waitAfterNextExtraction)
+    s.pendingWait = wait;
+  else
+    s.waitFor(wait);
 
   // Bookkeeping of the trajectory and the counters (under the map lock when threaded: the getters take it).
   std::unique_lock<std::mutex> bookLock(s.mapMutex, std::defer_lock);
@@ -686,7 +710,10 @@ TrackResult System::track(const datasets::Frame& input) {
 }
 
 void System::finish() {
-  if (impl_) impl_->waitForMapping();
+  if (!impl_) return;
+  impl_->waitFor(impl_->pendingWait);  // the last frame's wait, had another frame come
+  impl_->pendingWait = Impl::PendingWait::None;
+  impl_->waitForMapping();
 }
 
 void System::waitForLocalMapping() {

@@ -42,12 +42,15 @@ class ScopedStage {
  public:
   ScopedStage(StageTimings& timings, std::string stage)
       : timings_(timings), stage_(std::move(stage)), start_(std::chrono::steady_clock::now()) {}
-  ~ScopedStage() { timings_.add(stage_, msSince(start_)); }
+  ~ScopedStage() { timings_.add(stage_, msSince(start_) - excludedMs_); }
+  /// Leaves `ms` of the scope out of its stage (a wait timed as a stage of its own inside it).
+  void exclude(double ms) { excludedMs_ += ms; }
 
  private:
   StageTimings& timings_;
   std::string stage_;
   std::chrono::steady_clock::time_point start_;
+  double excludedMs_ = 0.0;
 };
 
 }  // namespace pslam
