@@ -279,8 +279,9 @@ TEST(SlamE2E, ThreadedLiveKeyFramesAtFewInliersWaitForTheirPoints) {
   // keyframe either way, the last one's by finish().
   for (const char* after : {"true", "false"}) {
     SCOPED_TRACE(std::string("waitAfterNextExtraction=") + after);
-    const auto s = runSlam(out, 1, true, roomRawlog(), kConfig,
-                           {"System.weakKeyFrameInliers=1000000", std::string("System.waitAfterNextExtraction=") + after});
+    const std::vector<std::string> sets{"System.weakKeyFrameInliers=1000000",
+                                        std::string("System.waitAfterNextExtraction=") + after};
+    const auto s = runSlam(out, 1, true, roomRawlog(), kConfig, sets);
     ASSERT_TRUE(s.initialized());
     EXPECT_EQ(s.framesLost, 0u);
     EXPECT_LT(ateSim3(gt, readTumTrajectory(out / "trajectory.txt")), 0.05);
