@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <set>
@@ -223,11 +224,22 @@ TEST(OrbExtractor, ThreadsShareOutTheLevelsWithoutChangingTheOutput) {
     one.exactLevelCoordinates = exact;
     std::vector<cv::KeyPoint> k1;
     cv::Mat d1;
-    OrbStageTimes t1;
-    OrbExtractor(one).extract(img, k1, d1, &t1);
+    OrbExtractor(one).extract(img, k1, d1);
     ASSERT_GT(k1.size(), 1000u);
-    // One thread: the per-level stages add up to the per-level wall time (what bench-features prints).
-    EXPECT_NEAR(t1.detectMs + t1.orientationMs + t1.descriptorMs, t1.levelsMs, 0.1 * t1.levelsMs + 0.05);
+    // One thread: the per-level stages add up to the per-level wall time (what bench-features prints). A wall clock
+    // also counts the time the thread is preempted between two stage timers (2.5 ms of 9.2 once, under ctest -j2
+    // beside an e2e test), so the best of up to five extractions is compared; a stage left out of the accounting
+    // leaves its gap in all five.
+    double gap = std::numeric_limits<double>::infinity(), levelsMs = 0.0;
+    for (int attempt = 0; attempt < 5 && !(gap <= 0.1 * levelsMs + 0.05); ++attempt) {
+      OrbStageTimes t;
+      std::vector<cv::KeyPoint> k;
+      cv::Mat d;
+      OrbExtractor(one).extract(img, k, d, &t);
+      gap = std::abs(t.detectMs + t.orientationMs + t.descriptorMs - t.levelsMs);
+      levelsMs = t.levelsMs;
+    }
+    EXPECT_LE(gap, 0.1 * levelsMs + 0.05);
     for (const int threads : {2, 3, 8, 20}) {
       OrbParams p = one;
       p.threads = threads;
