@@ -62,6 +62,11 @@ nlohmann::json EvalOptions::toJson() const {
 EvalApp::EvalApp(EvalOptions options) : options_(std::move(options)) { options_.check(); }
 
 namespace {
+/// How --segments aligns each segment: the run's alignment mode, Sim(3) when the run is not aligned.
+AlignmentMode segmentAlignmentMode(AlignmentMode runMode) {
+  return runMode == AlignmentMode::None ? AlignmentMode::Sim3 : runMode;
+}
+
 /// Reads one trajectory file in the format the options give (or detect); KITTI without times: by index.
 Trajectory readOne(const std::filesystem::path& path, TrajectoryFormat format, const std::filesystem::path& times,
                    bool& indexOnly) {
@@ -146,8 +151,8 @@ EvalResult EvalApp::evaluateImpl(const Trajectory& gt, const Trajectory& est, co
   if (options_.rpe) r.rpe = computeRpe(r.gtAssociated, r.estAligned, options_.rpeOptions);
   if (options_.rotationError) r.rotationError = computeRotationError(r.gtAssociated, r.estAligned);
   if (options_.segments > 0) {
-    const AlignmentMode mode = options_.alignment == AlignmentMode::None ? AlignmentMode::Sim3 : options_.alignment;
-    r.segments = alignSegments(r.gtAssociated, estAssociated, mode, options_.segments);
+    r.segments = alignSegments(r.gtAssociated, estAssociated, segmentAlignmentMode(options_.alignment),
+                               options_.segments);
   }
   if (!options_.depthSamples.empty()) {
     DepthRatioOptions dr = options_.depthRatio;
@@ -200,7 +205,7 @@ std::string EvalApp::formatTable(const EvalResult& r) const {
         << r.depthRatio->evaluated << " points, " << r.depthRatio->withoutGroundTruth << " without GT depth)\n";
   }
   if (!r.segments.empty()) {
-    const AlignmentMode mode = options_.alignment == AlignmentMode::None ? AlignmentMode::Sim3 : options_.alignment;
+    const AlignmentMode mode = segmentAlignmentMode(options_.alignment);
     out << "segments, each aligned on its own (" << toString(mode) << "):\n";
     std::snprintf(buf, sizeof(buf), "%7s %13s %18s %9s %10s %10s", "segment", "pairs", "time [s]", "path [m]",
                   "scale", "ATE [m]");
@@ -347,7 +352,7 @@ std::vector<std::pair<std::string, Plot>> EvalApp::makePlots(const EvalResult& r
   if (!r.segments.empty()) {
     // Each segment at its middle: with Sim(3), its scale against the whole run's (the scale drift along the path);
     // with SE(3), where every scale is 1, its own ATE.
-    const bool sim3 = options_.alignment != AlignmentMode::SE3;
+    const bool sim3 = segmentAlignmentMode(options_.alignment) == AlignmentMode::Sim3;
     std::vector<double> mid, value;
     for (const SegmentAlignment& g : r.segments) {
       mid.push_back(0.5 * (g.startTime + g.endTime) - r.gtAssociated.front().timestamp);

@@ -430,6 +430,11 @@ struct System::Impl {
       waitForMapping(true);
     }
   }
+  /// The wait the last frame left ([System] waitAfterNextExtraction), if any.
+  void takePendingWait() {
+    waitFor(pendingWait);
+    pendingWait = PendingWait::None;
+  }
   /// Threaded: a loop's global BA on its own thread (LoopCloser::setAsynchronousGlobalBa), guarded by queueMutex.
   enum class GlobalBaState { None, Running, Ready };
   GlobalBaState globalBa = GlobalBaState::None;
@@ -544,8 +549,7 @@ TrackResult System::track(const datasets::Frame& input) {
       // The last frame's wait for mapping, taken now that this frame's features are extracted (the extraction
       // overlapped with the mapping waited for); not part of this frame's tracking time.
       const auto waitStart = std::chrono::steady_clock::now();
-      s.waitFor(s.pendingWait);
-      s.pendingWait = Impl::PendingWait::None;
+      s.takePendingWait();
       total.exclude(msSince(waitStart));
     }
     std::optional<manhattan::ManhattanEstimate> mf;
@@ -711,8 +715,7 @@ TrackResult System::track(const datasets::Frame& input) {
 
 void System::finish() {
   if (!impl_) return;
-  impl_->waitFor(impl_->pendingWait);  // the last frame's wait, had another frame come
-  impl_->pendingWait = Impl::PendingWait::None;
+  impl_->takePendingWait();  // the last frame's wait, had another frame come
   impl_->waitForMapping();
 }
 
