@@ -226,20 +226,22 @@ TEST(OrbExtractor, ThreadsShareOutTheLevelsWithoutChangingTheOutput) {
     cv::Mat d1;
     OrbExtractor(one).extract(img, k1, d1);
     ASSERT_GT(k1.size(), 1000u);
-    // One thread: the per-level stages add up to the per-level wall time (what bench-features prints). A wall clock
-    // also counts the time the thread is preempted between two stage timers (2.5 ms of 9.2 once, under ctest -j2
-    // beside an e2e test), so the best of up to five extractions is compared; a stage left out of the accounting
-    // leaves its gap in all five.
-    double gap = std::numeric_limits<double>::infinity(), levelsMs = 0.0;
-    for (int attempt = 0; attempt < 5 && !(gap <= 0.1 * levelsMs + 0.05); ++attempt) {
+    // One thread: the per-level stages account for the levels' work (what bench-features prints). Compared in CPU
+    // time: a wall clock also counts the time the thread is preempted between two stage timers (2.5 ms of 9.2 once
+    // under ctest -j2 beside an e2e test, 4 ms in five extractions in a row on a machine running four more jobs).
+    // The best of up to five extractions is compared; a stage left out of the accounting leaves its gap in all five
+    // (the smallest, orientation, is about 8 % of the levels' CPU; the gap of a full accounting about 2 %).
+    double gap = std::numeric_limits<double>::infinity(), levelsCpuMs = 0.0;
+    for (int attempt = 0; attempt < 5 && !(gap <= 0.04 * levelsCpuMs + 0.05); ++attempt) {
       OrbStageTimes t;
       std::vector<cv::KeyPoint> k;
       cv::Mat d;
       OrbExtractor(one).extract(img, k, d, &t);
-      gap = std::abs(t.detectMs + t.orientationMs + t.descriptorMs - t.levelsMs);
-      levelsMs = t.levelsMs;
+      gap = std::abs(t.detectCpuMs + t.orientationCpuMs + t.descriptorCpuMs - t.levelsCpuMs);
+      levelsCpuMs = t.levelsCpuMs;
     }
-    EXPECT_LE(gap, 0.1 * levelsMs + 0.05);
+    EXPECT_GT(levelsCpuMs, 0.0);
+    EXPECT_LE(gap, 0.04 * levelsCpuMs + 0.05);
     for (const int threads : {2, 3, 8, 20}) {
       OrbParams p = one;
       p.threads = threads;
