@@ -100,13 +100,14 @@ cv::Mat DirectFrontEnd::undistort(const cv::Mat& image, bool nearest) const {
   return out;
 }
 
-landmarks::ClassVector DirectFrontEnd::classEvidenceAt(const cv::Mat& semantic, const Eigen::Vector2d& pixel) const {
-  // eq. 3.10 as for the keypoints (MapPointModelPolicy::classEvidence): without the prior, observed static.
-  if (!pointModel_.semantic || semantic.empty()) return {1.0, 0.0, 0.0};
+std::optional<landmarks::ClassVector> DirectFrontEnd::classEvidenceAt(const cv::Mat& semantic,
+                                                                      const Eigen::Vector2d& pixel) const {
+  // eq. 3.10 as for the keypoints (MapPointModelPolicy::classEvidence): without the prior, no evidence (static).
+  if (!pointModel_.semantic || semantic.empty()) return std::nullopt;
   const int x = std::clamp(static_cast<int>(std::lround(pixel.x())), 0, semantic.cols - 1);
   const int y = std::clamp(static_cast<int>(std::lround(pixel.y())), 0, semantic.rows - 1);
   const cv::Vec3b px = semantic.at<cv::Vec3b>(y, x);
-  return {px[0] / 255.0, px[1] / 255.0, px[2] / 255.0};
+  return landmarks::ClassVector{px[0] / 255.0, px[1] / 255.0, px[2] / 255.0};
 }
 
 landmarks::MapPointRecord DirectFrontEnd::recordOf(const DirectMapPoint& p, map::KeyFrameId host) const {
@@ -311,7 +312,8 @@ tracking::DirectFrameCounts DirectFrontEnd::afterTracking(const tracking::Frame&
       for (std::size_t k = 0; k < list.size(); ++k) {
         DirectMapPoint& p = host.points[lastInView_[list[k]].index];
         const Eigen::Vector2d flow(to[k].x, to[k].y);
-        const landmarks::ClassVector classes = classEvidenceAt(frameSemantic_, status[k] ? flow : predicted[k]);
+        const std::optional<landmarks::ClassVector> classes =
+            classEvidenceAt(frameSemantic_, status[k] ? flow : predicted[k]);
         if (!status[k] || (flow - predicted[k]).norm() > params_.maxMeasureShift) {
           keypointModel_.addSemanticObservation(p.state, classes, 0.0);
           continue;

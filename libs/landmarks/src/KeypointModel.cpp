@@ -54,7 +54,13 @@ void KeypointModel::addSemanticObservation(KeypointState& state, const ClassVect
   ++state.semanticUpdates;
 }
 
+void KeypointModel::addSemanticObservation(KeypointState& state, const std::optional<ClassVector>& classProbabilities,
+                                           double alpha) const {
+  if (classProbabilities) addSemanticObservation(state, *classProbabilities, alpha);
+}
+
 ClassVector KeypointModel::classPosterior(const KeypointState& state) const {
+  if (state.semanticUpdates == 0) return {1.0, 0.0, 0.0};  // no evidence: static (see the header)
   // Softmax of -NLL, shifted by the minimum so the largest term is exp(0) = 1 (no underflow to 0/0).
   const double minNll = *std::min_element(state.semanticNll.begin(), state.semanticNll.end());
   ClassVector q{};
@@ -194,7 +200,7 @@ UpdateWeights KeypointModel::updateDepth(KeypointState& state, double d, double 
 }
 
 UpdateWeights KeypointModel::observe(KeypointState& state, double d, double tau2, double alpha,
-                                    const ClassVector& classProbabilities) const {
+                                    const std::optional<ClassVector>& classProbabilities) const {
   KeypointState next = state;
   addSemanticObservation(next, classProbabilities, alpha);
   const UpdateWeights w = updateDepth(next, d, tau2, alpha);

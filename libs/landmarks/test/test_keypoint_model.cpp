@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -195,11 +196,24 @@ TEST(KeypointModel, InitializationAndPriorsOfTable31) {
   const KeypointModel model{KeypointModelParams{}};
   KeypointState s = model.initialize(0.5, 0.01);
   EXPECT_EQ(s.aObs, s.bObs);  // a = b (§3.5.5.1)
-  EXPECT_NEAR(model.inlierRatio(s), 0.5, 1e-12);  // uniform classes: a_sem = b_sem = 5/3
+  // No class evidence yet (a run without semantics never gives any): the static class exactly, a_sem = 5,
+  // b_sem = 0, so phi = (10 + 5) / (20 + 5) = psi_min = 0.6 and the point is active from birth (eq. 3.22).
+  EXPECT_EQ(model.classPosterior(s), (ClassVector{1, 0, 0}));
+  EXPECT_EQ(model.inlierRatio(s), model.params().psiMin);
+  EXPECT_TRUE(model.isActive(s));
   KeypointState st = s, dy = s, inv = s;
   model.addSemanticObservation(st, {1, 0, 0}, 1.0);
   model.addSemanticObservation(dy, {0, 1, 0}, 1.0);
   model.addSemanticObservation(inv, {0, 0, 1}, 1.0);
+  // A one-hot static label goes through the probability floor (1/510): the other classes keep 0.4 % and the
+  // point sits just below psi_min until its first depth update.
+  EXPECT_GT(model.inlierRatio(st), 0.599);
+  EXPECT_LT(model.inlierRatio(st), model.params().psiMin);
+  // Absent evidence adds nothing.
+  KeypointState none = s;
+  model.addSemanticObservation(none, std::optional<ClassVector>{}, 1.0);
+  EXPECT_EQ(none.semanticUpdates, 0u);
+  EXPECT_EQ(none.semanticNll, s.semanticNll);
   EXPECT_NEAR(model.semanticPrior(st).a, 5.0, 0.05);
   EXPECT_NEAR(model.semanticPrior(dy).b, 5.0, 0.05);
   EXPECT_GT(model.inlierRatio(st), 0.5);

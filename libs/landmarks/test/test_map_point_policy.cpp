@@ -68,8 +68,9 @@ TEST(MapPointPolicy, MaskingDeactivatesDynamicAndProbabilisticUsesInlierRatio) {
   // Inconsistent depth: the probabilistic model culls it after enough evidence.
   MapPointRecord moving = car;
   moving.model = model.initialize(0.5, 1e-3);
-  // Each outlier adds ~1 to b: phi = (10 + 5/3) / (20 + 10/3 + n) falls below 0.1 after ~95 of them.
-  for (int i = 0; i < 120; ++i) model.updateDepth(moving.model, i % 2 ? 3.0 : 7.0, 1e-4, 1.0);
+  // Each outlier adds ~1 to b: without class evidence the point is static (a_sem = 5), so phi = (10 + 5) / (25 + n)
+  // falls below 0.1 after ~125 of them.
+  for (int i = 0; i < 160; ++i) model.updateDepth(moving.model, i % 2 ? 3.0 : 7.0, 1e-4, 1.0);
   EXPECT_TRUE(probabilistic->shouldCull(moving, 0));
   EXPECT_FALSE(probabilistic->shouldCull(car, 0));
 }

@@ -30,9 +30,9 @@ MapPointModelPolicy::MapPointModelPolicy(const landmarks::PointModelParams& para
   policy_ = landmarks::makeMapPointPolicy(policyParams_, keypointModel_);
 }
 
-landmarks::ClassVector MapPointModelPolicy::classEvidence(const std::array<float, 3>* probabilities) const {
-  if (!semantic_ || !probabilities) return {1.0, 0.0, 0.0};
-  return {(*probabilities)[0], (*probabilities)[1], (*probabilities)[2]};
+std::optional<landmarks::ClassVector> MapPointModelPolicy::classEvidence(const std::array<float, 3>* probabilities) const {
+  if (!semantic_ || !probabilities) return std::nullopt;
+  return landmarks::ClassVector{(*probabilities)[0], (*probabilities)[1], (*probabilities)[2]};
 }
 
 landmarks::KeypointState MapPointModelPolicy::stateOf(const map::MapPoint& p) const {
@@ -49,7 +49,7 @@ bool MapPointModelPolicy::observe(const map::Map& map, map::MapPoint& p, const m
                            ? 1.0
                            : landmarks::matchingAccuracyFromDescriptors(p.descriptor, m.descriptor,
                                                                         matching_.hammingMaxDistance);
-  const landmarks::ClassVector classes = classEvidence(m.classProbabilities);
+  const std::optional<landmarks::ClassVector> classes = classEvidence(m.classProbabilities);
   bool updated = false;
   const geometry::Matrix34d P1 = geometry::projectionMatrix(
       anchor.camera.K(), anchor.T_cam_world.linear(), anchor.T_cam_world.translation());

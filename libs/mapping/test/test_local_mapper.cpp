@@ -572,7 +572,8 @@ TEST(LocalMapper, ProbabilisticModelUpdatesPointStatesAndActivatesConsistentPoin
   EXPECT_GT(updates, 100);
   landmarks::KeypointModel model(params.pointModel.keypoint);
   const double freshPhi = model.inlierRatio(model.initialize(0.2, 1e-4));
-  ASSERT_LT(freshPhi, params.pointModel.keypoint.psiMin);  // a = b = 10: new points start inactive
+  // a = b = 10 and no class evidence (static, A = 5): new points start at psi_min exactly, active.
+  ASSERT_EQ(freshPhi, params.pointModel.keypoint.psiMin);
   int withState = 0, measured = 0, active = 0, updatedOften = 0;
   for (const auto& [id, p] : m.mapPoints()) {
     if (p.landmarkState.empty()) continue;

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -221,7 +222,8 @@ class DirectFrontEnd : public tracking::DirectPointSource {
   cv::Mat undistort(const cv::Mat& image, bool nearest) const;
   void prepareFrame(const tracking::Frame& frame);
   std::shared_ptr<optimize::ImagePyramid> hostPyramid(DirectHost& host) const;
-  landmarks::ClassVector classEvidenceAt(const cv::Mat& semantic, const Eigen::Vector2d& pixel) const;
+  /// As MapPointModelPolicy::classEvidence: the SEMANTIC channel's probabilities at the pixel, or none.
+  std::optional<landmarks::ClassVector> classEvidenceAt(const cv::Mat& semantic, const Eigen::Vector2d& pixel) const;
   std::vector<map::KeyFrameId> trackingHosts(const map::Map& map, map::KeyFrameId reference) const;
   landmarks::MapPointRecord recordOf(const DirectMapPoint& point, map::KeyFrameId host) const;
 

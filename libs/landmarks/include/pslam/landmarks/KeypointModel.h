@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include "pslam/core/Params.h"
@@ -105,13 +106,17 @@ class KeypointModel {
   explicit KeypointModel(const KeypointModelParams& params);
   const KeypointModelParams& params() const { return params_; }
 
-  /// New point: inverse depth `inverseDepth` with variance `variance`, a_obs = b_obs = initialCount, uniform
-  /// class evidence. Throws pslam::Error on non-finite values or a non-positive variance.
+  /// New point: inverse depth `inverseDepth` with variance `variance`, a_obs = b_obs = initialCount, no class
+  /// evidence (the static class, see classPosterior()). Throws pslam::Error on non-finite values or a
+  /// non-positive variance.
   KeypointState initialize(double inverseDepth, double variance) const;
 
   /// Accumulates one semantic observation: classProbabilities = CNN(c_k|I_i) (need not be normalized; they
   /// are clamped at probabilityFloor), weighted by the matching accuracy alpha in [0, 1] (eq. 3.10).
   void addSemanticObservation(KeypointState& state, const ClassVector& classProbabilities, double alpha) const;
+  /// The same for evidence that may be absent (no SEMANTIC channel, or [PointModel] semantic = false): nothing then.
+  void addSemanticObservation(KeypointState& state, const std::optional<ClassVector>& classProbabilities,
+                              double alpha) const;
 
   /// One depth measurement d (inverse depth) with variance tau2 and matching accuracy alpha in [0, 1]:
   /// eq. 3.11-3.19 with the current semantic prior. Returns the branch weights. Throws pslam::Error on NaN,
@@ -120,13 +125,22 @@ class KeypointModel {
 
   /// One observation in a new frame (§3.4.2): the semantic evidence first (it sets the prior of this update),
   /// then the depth. All-or-nothing: on a pslam::Error the state is unchanged.
+  /// Without class evidence (std::nullopt) it is the depth update alone.
   UpdateWeights observe(KeypointState& state, double d, double tau2, double alpha,
-                        const ClassVector& classProbabilities) const;
+                        const std::optional<ClassVector>& classProbabilities) const;
+  UpdateWeights observe(KeypointState& state, double d, double tau2, double alpha,
+                        const ClassVector& classProbabilities) const {
+    return observe(state, d, tau2, alpha, std::optional<ClassVector>(classProbabilities));
+  }
 
   /// The moments the update matches (exposed for tests and diagnostics).
   PosteriorMoments posteriorMoments(const KeypointState& state, double d, double tau2, double alpha) const;
 
-  /// q(c_k|S) of eq. 3.10 (normalized; uniform before any observation).
+  /// q(c_k|S) of eq. 3.10 (normalized). Before any class evidence: the static class, exactly. A run without
+  /// semantics assumes every point static; its prior (A = 5, B = 0, Table 3.1) then gives a new point
+  /// phi = (n + 5) / (2 n + 5), 0.6 = psi_min for n = initialCount = 10: active from birth, as eq. 3.22 says.
+  /// (Assumed evidence passed through the probability floor would leave the other classes 0.4 % and the point
+  /// just below psi_min, inactive until its first depth update.)
   ClassVector classPosterior(const KeypointState& state) const;
   /// a_sem, b_sem of eq. 3.20-3.21 with the B = inf veto described above.
   SemanticPrior semanticPrior(const KeypointState& state) const;

@@ -4,6 +4,7 @@
 // and the keypoint-model state of §3.3 in MapPoint::landmarkState). One instance per run is shared by the
 // tracker and local mapping, so "may this point be used" is decided in one place.
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "pslam/landmarks/KeypointModel.h"
@@ -34,9 +35,10 @@ class MapPointModelPolicy : public map::PointUsePolicy {
   /// the depth was updated (a view without parallax to the anchor gives only the class evidence).
   bool observe(const map::Map& map, map::MapPoint& point, const map::PointMeasurement& measurement) const override;
 
-  /// The class evidence of a keypoint (eq. 3.10): its SEMANTIC probabilities, or class static when the
-  /// semantic prior is off (PointModelParams::semantic) or the view has no SEMANTIC channel.
-  landmarks::ClassVector classEvidence(const std::array<float, 3>* probabilities) const;
+  /// The class evidence of a keypoint (eq. 3.10): its SEMANTIC probabilities, or none when the semantic prior is
+  /// off (PointModelParams::semantic) or the view has no SEMANTIC channel (a point without evidence is static,
+  /// landmarks::KeypointModel::classPosterior).
+  std::optional<landmarks::ClassVector> classEvidence(const std::array<float, 3>* probabilities) const;
   /// The probabilistic model's own culling rule (landmarks::inlierRatioShouldCull), for points past ORB-SLAM's
   /// recent-point probation; false for the other models.
   bool inlierRatioSaysCull(const map::MapPoint& point) const;
