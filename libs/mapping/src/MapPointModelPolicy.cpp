@@ -30,7 +30,8 @@ MapPointModelPolicy::MapPointModelPolicy(const landmarks::PointModelParams& para
   policy_ = landmarks::makeMapPointPolicy(policyParams_, keypointModel_);
 }
 
-std::optional<landmarks::ClassVector> MapPointModelPolicy::classEvidence(const std::array<float, 3>* probabilities) const {
+std::optional<landmarks::ClassVector> MapPointModelPolicy::classEvidence(
+    const std::array<float, 3>* probabilities) const {
   if (!semantic_ || !probabilities) return std::nullopt;
   return landmarks::ClassVector{(*probabilities)[0], (*probabilities)[1], (*probabilities)[2]};
 }
