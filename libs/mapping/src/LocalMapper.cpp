@@ -98,9 +98,11 @@ static bool updateLandmarkState(map::Map& map, const MapPointModelPolicy& policy
     m.classProbabilities = classes;
     return policy.observe(map, p, m);
   }
+  // The anchor's class evidence, once; without any (no semantics) only a point without a stored state gets one.
   landmarks::KeypointState state = policy.stateOf(p);
-  if (state.semanticUpdates == 0) {
-    policy.keypointModel().addSemanticObservation(state, policy.classEvidence(classes), 1.0);
+  const std::optional<landmarks::ClassVector> evidence = policy.classEvidence(classes);
+  if (state.semanticUpdates == 0 && (evidence || p.landmarkState.empty())) {
+    policy.keypointModel().addSemanticObservation(state, evidence, 1.0);
     p.landmarkState = encodeKeypointState(state);
   }
   return false;
