@@ -489,6 +489,10 @@ void System::start(const geometry::PinholeCamera& camera) {
   }
   impl_->mappingEnabled = mappingEnabled_;
   impl_->tracker->setMapUpdatesEnabled(mappingEnabled_);
+  // Threaded live: weak tracking asks for a keyframe on its own (KeyFrameDecisionInput::weakInliers), with the
+  // threshold at which a keyframe's new points are waited for.
+  if (threaded_ && params_.system.threadedTracking == "live")
+    impl_->tracker->setWeakTrackingInliers(params_.system.weakKeyFrameInliers);
 }
 
 System::~System() = default;

@@ -9,7 +9,13 @@ bool needNewKeyFrame(const KeyFrameDecisionInput& in, const KeyFrameDecisionPara
     return false;
   const bool c1a = in.frameIndex >= in.lastKeyFrameFrame + static_cast<std::size_t>(p.maxFrames);
   const bool c1b = in.frameIndex >= in.lastKeyFrameFrame + static_cast<std::size_t>(p.minFrames) && in.localMappingIdle;
-  const bool c2 = in.trackedInliers < p.refRatio * in.referenceTrackedPoints && in.trackedInliers > p.minInliers;
+  // Weak tracking (threaded live mode only): a reference keyframe made on weak tracking has few points seen by
+  // three keyframes, and frames that match more of the local map's older points than that never fall below the
+  // ratio, so no keyframe follows until the camera is lost (KITTI 00 threaded: a keyframe at 40 inliers, then
+  // 80 ... 41 inliers and lost six frames later, doc/performance.md).
+  const bool weak = in.weakInliers > 0 && in.trackedInliers < in.weakInliers;
+  const bool c2 =
+      (in.trackedInliers < p.refRatio * in.referenceTrackedPoints || weak) && in.trackedInliers > p.minInliers;
   // The same test on the direct points: the frame still tracks with them but sees too few of the reference
   // keyframe's (a frame whose keypoints are too few to pass c2 is still mapped: its direct points carry it).
   const bool c2direct = in.directSupported && in.directReferenceActive > 0 &&

@@ -973,6 +973,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   // measurement activated count, as they do in the reference keyframe's count.
   kin.trackedInliers = policy_ ? rep.activeMatches : rep.inliers;
   kin.localMappingIdle = localMappingIdle_;
+  kin.weakInliers = weakTrackingInliers_;
   kin.directSupported = directFactors_ > 0 && directInliers_ >= direct_->minInliers();
   kin.directReferenceInView = rep.direct.referenceInView;
   kin.directReferenceActive = rep.direct.referenceActive;
@@ -985,7 +986,8 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
     kin.localMappingIdle = true;
     res.keyFrameWaitsForMapping = needNewKeyFrame(kin, params_.keyFrames);
     res.keyFrameUrgent = res.keyFrameWaitsForMapping &&
-                         kin.trackedInliers < params_.keyFrames.waitRatio * kin.referenceTrackedPoints;
+                         (kin.trackedInliers < params_.keyFrames.waitRatio * kin.referenceTrackedPoints ||
+                          kin.trackedInliers < kin.weakInliers);
   }
   res.hasPose = true;
   res.T_cam_world = frame.T_cam_world;

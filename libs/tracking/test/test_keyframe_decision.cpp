@@ -68,3 +68,22 @@ TEST(KeyFrameDecision, MinFramesAndRelocalizationBlock) {
   in.numKeyFrames = 20;
   EXPECT_TRUE(needNewKeyFrame(in, p));
 }
+
+TEST(KeyFrameDecision, WeakTrackingNeedsAKeyFrameWhateverTheReferenceCount) {
+  // A reference keyframe made on weak tracking: 35 of its points are seen by three keyframes, the frame matches
+  // 41 local-map points. The ratio alone never asks for a keyframe (41 > 0.9 * 35) until the frame is lost.
+  KeyFrameDecisionParams p;
+  auto in = base();
+  in.referenceTrackedPoints = 35;
+  in.trackedInliers = 41;
+  EXPECT_FALSE(needNewKeyFrame(in, p));  // ORB-SLAM's rule (weakInliers 0, the sequential mode)
+  in.weakInliers = 60;
+  EXPECT_TRUE(needNewKeyFrame(in, p));   // threaded live: fewer than 60 inliers
+  in.trackedInliers = 60;
+  EXPECT_FALSE(needNewKeyFrame(in, p));  // not below the threshold
+  in.trackedInliers = 15;
+  EXPECT_FALSE(needNewKeyFrame(in, p));  // too few to make a keyframe from, as in ORB-SLAM
+  in.trackedInliers = 41;
+  in.localMappingIdle = false;
+  EXPECT_FALSE(needNewKeyFrame(in, p));  // mapping busy: c1 still rules (the tracker then waits, urgent)
+}

@@ -39,7 +39,8 @@ struct SystemParams {
   /// Threaded "live": a keyframe made by a frame with fewer local-map inliers than this holds tracking until its
   /// new points are in the map (as "afterNewPoints" does for every keyframe); 0 = never. 60, twice ORB-SLAM's 30
   /// inliers of a tracked frame. KITTI 00 threaded, 90 runs with 60 or 80 against 90 with 0: 4 runs above 1 m ATE
-  /// and 2 lost the camera, against 13 and 4 (doc/performance.md).
+  /// and 2 lost the camera, against 13 and 4 (doc/performance.md). The same threshold makes a frame that tracks
+  /// fewer inliers need a keyframe (tracking::KeyFrameDecisionInput::weakInliers).
   int weakKeyFrameInliers = 60;
   /// Threaded: the waits a frame leaves for the next one (a weak keyframe's points, an urgent keyframe) are taken
   /// after the next frame's feature extraction instead of at the end of this frame, so the extraction overlaps

@@ -15,6 +15,9 @@ struct KeyFrameDecisionInput {
   int referenceTrackedPoints = 0;     ///< points of the reference keyframe seen by >= nMinObs keyframes
   int trackedInliers = 0;             ///< inlier matches of the current frame after local-map tracking
   bool localMappingIdle = true;       ///< always true in the sequential mode
+  /// Threaded live mode ([System] weakKeyFrameInliers; 0 in the sequential mode = ORB-SLAM's rule): a frame with
+  /// fewer inliers than this needs a keyframe whatever the reference keyframe's count (see needNewKeyFrame).
+  int weakInliers = 0;
   // Direct points (§3.4.3: "we only consider active points ... in the decision"); all 0 without them.
   bool directSupported = false;       ///< the direct points alone carried the pose (enough inliers)
   int directReferenceInView = 0;      ///< active points hosted in the reference keyframe that the frame sees

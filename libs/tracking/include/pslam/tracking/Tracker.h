@@ -228,6 +228,9 @@ class Tracker {
   Result track(Frame frame, StageTimings& timings);
 
   void setLocalMappingIdle(bool idle) { localMappingIdle_ = idle; }
+  /// Threaded live mode: frames with fewer inliers than this need a keyframe (KeyFrameDecisionInput::weakInliers)
+  /// and wait for mapping when it is busy; 0 (default, the sequential mode) = ORB-SLAM's decision.
+  void setWeakTrackingInliers(int inliers) { weakTrackingInliers_ = inliers; }
   /// The policy that decides which map points tracking may use (null: every point that is not bad). Give it
   /// the same object local mapping uses (LocalMapper::pointUsePolicy()).
   void setPointUsePolicy(std::shared_ptr<const map::PointUsePolicy> policy);
@@ -366,6 +369,7 @@ class Tracker {
   /// Frames with a pose since the last relocalization that is not yet confirmed (0: none pending).
   std::size_t unconfirmedRelocFrames_ = 0;
   bool localMappingIdle_ = true;
+  int weakTrackingInliers_ = 0;
   std::vector<map::KeyFrameId> localKeyFrames_;
   StageTimings* timings_ = nullptr;  ///< of the current track() call
   std::map<map::MapPointId, std::size_t> measured_;  ///< of the current track() call (recordMeasurements)
