@@ -290,6 +290,16 @@ TEST(SlamE2E, ThreadedLiveKeyFramesAtFewInliersWaitForTheirPoints) {
     for (const auto& f : report["frames"]) keyFrameFrames += f["keyframe"].get<bool>();
     ASSERT_TRUE(report["timings"].contains("wait_for_weak_keyframe"));
     EXPECT_EQ(report["timings"]["wait_for_weak_keyframe"]["count"].get<std::size_t>(), keyFrameFrames);
+    // Every frame is weak at that threshold, so every frame needs a keyframe (KeyFrameDecisionInput::weakInliers):
+    // made when mapping is idle, else tracking waits until it is (urgent) and the next frame makes it. No two
+    // tracked frames in a row without a keyframe.
+    std::size_t withoutKeyFrame = 0, longestRun = 0;
+    for (const auto& f : report["frames"]) {
+      if (f["status"] != "tracking") continue;
+      withoutKeyFrame = f["keyframe"].get<bool>() ? 0 : withoutKeyFrame + 1;
+      longestRun = std::max(longestRun, withoutKeyFrame);
+    }
+    EXPECT_LE(longestRun, 1u);
   }
   const fs::path plain = tempRoot() / "threaded_plain_keyframes";
   runSlam(plain, 1, true, roomRawlog(), kConfig, {"System.weakKeyFrameInliers=0"});
