@@ -2,6 +2,12 @@
 
 namespace pslam::tracking {
 
+namespace {
+bool weakTracking(const KeyFrameDecisionInput& in) {
+  return in.weakInliers > 0 && in.trackedInliers < in.weakInliers;
+}
+}  // namespace
+
 bool needNewKeyFrame(const KeyFrameDecisionInput& in, const KeyFrameDecisionParams& p) {
   // Shortly after a relocalization the map is not trusted enough to extend it.
   if (in.relocalizedEver && in.frameIndex < in.lastRelocFrame + static_cast<std::size_t>(p.maxFrames) &&
@@ -13,14 +19,17 @@ bool needNewKeyFrame(const KeyFrameDecisionInput& in, const KeyFrameDecisionPara
   // three keyframes, and frames that match more of the local map's older points than that never fall below the
   // ratio, so no keyframe follows until the camera is lost (KITTI 00 threaded: a keyframe at 40 inliers, then
   // 80 ... 41 inliers and lost six frames later, doc/performance.md).
-  const bool weak = in.weakInliers > 0 && in.trackedInliers < in.weakInliers;
-  const bool c2 =
-      (in.trackedInliers < p.refRatio * in.referenceTrackedPoints || weak) && in.trackedInliers > p.minInliers;
+  const bool c2 = (in.trackedInliers < p.refRatio * in.referenceTrackedPoints || weakTracking(in)) &&
+                  in.trackedInliers > p.minInliers;
   // The same test on the direct points: the frame still tracks with them but sees too few of the reference
   // keyframe's (a frame whose keypoints are too few to pass c2 is still mapped: its direct points carry it).
   const bool c2direct = in.directSupported && in.directReferenceActive > 0 &&
                         in.directReferenceInView < p.directRatio * in.directReferenceActive;
   return (c1a || c1b) && (c2 || c2direct);
+}
+
+bool keyFrameUrgent(const KeyFrameDecisionInput& in, const KeyFrameDecisionParams& p) {
+  return in.trackedInliers < p.waitRatio * in.referenceTrackedPoints || weakTracking(in);
 }
 
 }  // namespace pslam::tracking

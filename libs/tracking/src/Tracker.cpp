@@ -985,9 +985,7 @@ Tracker::Result Tracker::track(Frame frame, StageTimings& timings) {
   } else if (mapUpdates_ && !kin.localMappingIdle) {
     kin.localMappingIdle = true;
     res.keyFrameWaitsForMapping = needNewKeyFrame(kin, params_.keyFrames);
-    res.keyFrameUrgent = res.keyFrameWaitsForMapping &&
-                         (kin.trackedInliers < params_.keyFrames.waitRatio * kin.referenceTrackedPoints ||
-                          kin.trackedInliers < kin.weakInliers);
+    res.keyFrameUrgent = res.keyFrameWaitsForMapping && keyFrameUrgent(kin, params_.keyFrames);
   }
   res.hasPose = true;
   res.T_cam_world = frame.T_cam_world;

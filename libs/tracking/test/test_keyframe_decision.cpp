@@ -5,6 +5,7 @@
 
 using pslam::tracking::KeyFrameDecisionInput;
 using pslam::tracking::KeyFrameDecisionParams;
+using pslam::tracking::keyFrameUrgent;
 using pslam::tracking::needNewKeyFrame;
 
 namespace {
@@ -86,4 +87,9 @@ TEST(KeyFrameDecision, WeakTrackingNeedsAKeyFrameWhateverTheReferenceCount) {
   in.trackedInliers = 41;
   in.localMappingIdle = false;
   EXPECT_FALSE(needNewKeyFrame(in, p));  // mapping busy: c1 still rules (the tracker then waits, urgent)
+  EXPECT_TRUE(keyFrameUrgent(in, p));    // weak: wait for mapping so that the next frame makes the keyframe
+  in.weakInliers = 0;
+  EXPECT_FALSE(keyFrameUrgent(in, p));   // 41 of 35 reference points: not urgent by waitRatio alone
+  in.trackedInliers = 34;
+  EXPECT_TRUE(keyFrameUrgent(in, p));    // below waitRatio (1) x 35
 }

@@ -57,4 +57,9 @@ struct KeyFrameDecisionParams {
 /// true when a keyframe should be inserted now.
 bool needNewKeyFrame(const KeyFrameDecisionInput& in, const KeyFrameDecisionParams& params);
 
+/// Threaded mode, for a frame whose needed keyframe mapping is too busy to take: true when tracking should wait
+/// for mapping so that the next frame makes it (fewer than waitRatio of the reference keyframe's points, or weak
+/// tracking, KeyFrameDecisionInput::weakInliers).
+bool keyFrameUrgent(const KeyFrameDecisionInput& in, const KeyFrameDecisionParams& params);
+
 }  // namespace pslam::tracking
