@@ -2,7 +2,13 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <cstring>
+#include <deque>
+#include <fstream>
+#include <future>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <zlib.h>
@@ -15,6 +21,39 @@ namespace pslam {
 
 namespace {
 gzFile gz(void* f) { return static_cast<gzFile>(f); }
+
+// One complete gzip member (header, deflate data, CRC-32 and length trailer) of `size` bytes at `level`; "" and
+// `error` set when zlib fails.
+std::string gzipMember(const unsigned char* data, std::size_t size, int level, std::string& error) {
+  z_stream zs{};
+  // windowBits 15 + 16: a gzip header and trailer; zlib's header carries no time stamp and no name.
+  if (deflateInit2(&zs, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+    error = "cannot start zlib's deflate";
+    return {};
+  }
+  std::string out(deflateBound(&zs, size), '\0');  // enough in one pass; grown below if not
+  std::size_t offered = 0, produced = 0;
+  int rc = Z_OK;
+  while (rc == Z_OK) {
+    if (zs.avail_in == 0 && offered < size) {  // zlib takes at most 4 GiB per call
+      const std::size_t n = std::min<std::size_t>(size - offered, 1u << 30);
+      zs.next_in = const_cast<Bytef*>(data + offered);
+      zs.avail_in = static_cast<uInt>(n);
+      offered += n;
+    }
+    if (produced == out.size()) out.resize(2 * out.size());
+    const std::size_t room = std::min<std::size_t>(out.size() - produced, 1u << 30);
+    zs.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
+    zs.avail_out = static_cast<uInt>(room);
+    rc = deflate(&zs, offered == size && zs.avail_in == 0 ? Z_FINISH : Z_NO_FLUSH);
+    produced += room - zs.avail_out;
+  }
+  const bool ok = rc == Z_STREAM_END;
+  if (!ok && error.empty()) error = std::string("zlib's deflate failed (") + (zs.msg ? zs.msg : "no message") + ")";
+  out.resize(ok ? produced : 0);
+  deflateEnd(&zs);
+  return out;
+}
 }  // namespace
 
 GzipInputStream::GzipInputStream(fs::path path) : path_(std::move(path)) {
@@ -88,6 +127,81 @@ void verifyGzipFile(const fs::path& path) {
   while (in.Read(buffer.data(), buffer.size()) == buffer.size()) {
   }
 }
+
+struct GzipOutputStream::Impl {
+  struct Member {
+    std::string bytes, error;
+  };
+  std::ofstream file;
+  std::deque<std::future<Member>> pending;  // blocks being compressed, in file order
+};
+
+GzipOutputStream::GzipOutputStream(fs::path path, int level, std::size_t blockBytes, unsigned threads)
+    : path_(std::move(path)), level_(level), blockBytes_(blockBytes), threads_(threads),
+      impl_(std::make_unique<Impl>()) {
+  if (level < 0 || level > 9) throw Error(path_.string() + ": gzip level " + std::to_string(level) + " is not in 0-9");
+  if (blockBytes == 0) throw Error(path_.string() + ": gzip blocks of 0 bytes");
+  if (threads == 0) throw Error(path_.string() + ": gzip compression on 0 threads");
+  impl_->file.open(path_, std::ios::binary | std::ios::trunc);
+  if (!impl_->file) throw Error(path_.string() + ": cannot open for writing (" + std::strerror(errno) + ")");
+  block_.reserve(blockBytes_);
+}
+
+// The futures of std::async wait for their threads when the deque is destroyed.
+GzipOutputStream::~GzipOutputStream() = default;
+
+size_t GzipOutputStream::Write(const void* buffer, size_t count) {
+  if (closed_) throw Error(path_.string() + ": written after it was closed");
+  const char* bytes = static_cast<const char*>(buffer);
+  for (size_t left = count; left > 0;) {
+    const size_t n = std::min(left, blockBytes_ - block_.size());
+    block_.append(bytes, n);
+    bytes += n;
+    left -= n;
+    if (block_.size() == blockBytes_) submitBlock();
+  }
+  position_ += count;
+  return count;
+}
+
+void GzipOutputStream::submitBlock() {
+  if (impl_->pending.size() >= threads_) writeOldestMember();
+  impl_->pending.push_back(std::async(std::launch::async, [level = level_, data = std::move(block_)] {
+    Impl::Member m;
+    m.bytes = gzipMember(reinterpret_cast<const unsigned char*>(data.data()), data.size(), level, m.error);
+    return m;
+  }));
+  block_ = std::string();
+  block_.reserve(blockBytes_);
+  anyMember_ = true;
+}
+
+void GzipOutputStream::writeOldestMember() {
+  const Impl::Member m = impl_->pending.front().get();
+  impl_->pending.pop_front();
+  if (!m.error.empty()) throw Error(path_.string() + ": " + m.error);
+  impl_->file.write(m.bytes.data(), static_cast<std::streamsize>(m.bytes.size()));
+  if (!impl_->file) throw Error(path_.string() + ": writing failed (" + std::strerror(errno) + ")");
+}
+
+void GzipOutputStream::close() {
+  if (closed_) return;
+  closed_ = true;
+  if (!block_.empty() || !anyMember_) submitBlock();
+  while (!impl_->pending.empty()) writeOldestMember();
+  impl_->file.close();
+  if (!impl_->file) throw Error(path_.string() + ": writing failed (" + std::strerror(errno) + ")");
+}
+
+size_t GzipOutputStream::Read(void*, size_t) { throw Error(path_.string() + ": opened for writing only"); }
+
+uint64_t GzipOutputStream::Seek(int64_t, TSeekOrigin) { throw Error(path_.string() + ": the stream is not seekable"); }
+
+uint64_t GzipOutputStream::getTotalBytesCount() const { return position_; }
+
+uint64_t GzipOutputStream::getPosition() const { return position_; }
+
+std::string GzipOutputStream::getStreamDescription() const { return "GzipOutputStream: " + path_.string(); }
 
 void GzipInputStream::requireEnd() {
   unsigned char byte = 0;

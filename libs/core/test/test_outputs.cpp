@@ -10,6 +10,7 @@
 #include <iterator>
 #include <string>
 
+#include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -249,6 +250,82 @@ TEST(GzipInputStream, VerifiesTheStreamToItsEnd) {
     EXPECT_NE(errorOf([&] { plain.requireEnd(); }).find("unexpected data"), std::string::npos);
   }
   EXPECT_NE(errorOf([&] { GzipInputStream missing(d / "missing.gz"); }).find("missing.gz: file not found"),
+            std::string::npos);
+}
+
+TEST(GzipOutputStream, BlocksReadAsOneStreamAndTheBytesDependOnTheDataOnly) {
+  const fs::path d = tempDir("gzip_write");
+  std::string payload;  // compressible text and bytes that hardly compress, as a map's descriptors
+  for (int i = 0; i < 30000; ++i) payload += std::to_string(i * 7919 % 10007) + ",";
+  for (int i = 0; i < 100000; ++i) payload += static_cast<char>((i * 2654435761u) >> 24);
+  auto readThrough = [](const fs::path& p) {
+    GzipInputStream in(p);
+    EXPECT_TRUE(in.compressed());
+    std::string out;
+    char buf[4096];
+    std::size_t n = 0;
+    while ((n = in.Read(buf, sizeof buf)) > 0) out.append(buf, n);
+    EXPECT_TRUE(in.atEnd());
+    return out;
+  };
+  // Written in pieces of `piece` bytes (0: in one call).
+  auto write = [&](const fs::path& p, int level, std::size_t block, unsigned threads, std::size_t piece) {
+    GzipOutputStream out(p, level, block, threads);
+    for (std::size_t at = 0; at < payload.size(); at += piece ? piece : payload.size())
+      out.Write(payload.data() + at, std::min(payload.size() - at, piece ? piece : payload.size()));
+    EXPECT_EQ(out.getPosition(), payload.size());
+    out.close();
+  };
+  for (const std::size_t block : {std::size_t(1) << 20, payload.size(), std::size_t(50000), std::size_t(777)}) {
+    SCOPED_TRACE(block);
+    write(d / "one_thread.gz", 1, block, 1, 0);
+    const std::string reference = readAll(d / "one_thread.gz");
+    EXPECT_EQ(readThrough(d / "one_thread.gz"), payload);
+    EXPECT_NO_THROW(verifyGzipFile(d / "one_thread.gz"));
+    for (const unsigned threads : {2u, 3u}) {
+      for (const std::size_t piece : {std::size_t(0), std::size_t(1000), std::size_t(65537)}) {
+        write(d / "other.gz", 1, block, threads, piece);
+        EXPECT_EQ(readAll(d / "other.gz"), reference) << threads << " threads, pieces of " << piece;
+      }
+    }
+    // MRPT's reader (gzread) reads the members as one stream too.
+    mrpt::io::CFileGZInputStream mrptIn((d / "one_thread.gz").string());
+    std::string viaMrpt(payload.size() + 1, '\0');
+    EXPECT_EQ(mrptIn.Read(viaMrpt.data(), viaMrpt.size()), payload.size());
+    EXPECT_EQ(viaMrpt.substr(0, payload.size()), payload);
+  }
+  // The first member of a file of several is what a file of that first block alone would be: a file cut there
+  // ends at a verified gzip trailer, so a reader of the content has to notice what is missing
+  // (MapIO.CutBetweenGzipMembers).
+  const std::size_t block = 50000;
+  write(d / "blocks.gz", 6, block, 2, 0);
+  {
+    GzipOutputStream first(d / "first.gz", 6, block, 2);
+    first.Write(payload.data(), block);
+    first.close();
+  }
+  const std::string blocks = readAll(d / "blocks.gz"), first = readAll(d / "first.gz");
+  ASSERT_LT(first.size(), blocks.size());
+  EXPECT_EQ(blocks.substr(0, first.size()), first);
+  EXPECT_EQ(readThrough(d / "first.gz"), payload.substr(0, block));
+  // Level 0 stores; nothing written is a valid empty file; a close without writes or twice is harmless.
+  write(d / "stored.gz", 0, 1 << 20, 2, 0);
+  EXPECT_GT(fs::file_size(d / "stored.gz"), payload.size());
+  EXPECT_EQ(readThrough(d / "stored.gz"), payload);
+  {
+    GzipOutputStream empty(d / "empty.gz", 6);
+    empty.close();
+    empty.close();
+    EXPECT_NE(errorOf([&] { empty.Write("a", 1); }).find("empty.gz: written after it was closed"), std::string::npos);
+  }
+  EXPECT_EQ(readThrough(d / "empty.gz"), "");
+  EXPECT_NE(errorOf([&] { GzipOutputStream s(d / "x.gz", 10); }).find("x.gz: gzip level 10 is not in 0-9"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { GzipOutputStream s(d / "x.gz", 1, 0); }).find("x.gz: gzip blocks of 0 bytes"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { GzipOutputStream s(d / "x.gz", 1, 10, 0); }).find("x.gz: gzip compression on 0 threads"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { GzipOutputStream s(d / "missing" / "x.gz", 1); }).find("x.gz: cannot open for writing"),
             std::string::npos);
 }
 

@@ -1,11 +1,13 @@
 #pragma once
-// Verified reading of gzip-compressed MRPT archives (rawlogs, maps). MRPT's CFileGZInputStream takes every
-// zlib error for the end of the file, so a corrupt or cut file reads as a shorter valid one, and never checks
-// the gzip trailer. This stream reads through zlib directly and reports every error instead: corrupt deflate
-// data, a CRC-32 or length mismatch in the trailer, data that ends before the trailer. It streams (a 128 KiB
-// buffer), so rawlogs of any size are read in constant memory.
+// Verified reading of gzip-compressed MRPT archives (rawlogs, maps), and block-parallel writing of them (maps).
+// MRPT's CFileGZInputStream takes every zlib error for the end of the file, so a corrupt or cut file reads as a
+// shorter valid one, and never checks the gzip trailer. This stream reads through zlib directly and reports every
+// error instead: corrupt deflate data, a CRC-32 or length mismatch in the trailer, data that ends before the
+// trailer. It streams (a 128 KiB buffer), so rawlogs of any size are read in constant memory.
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include <mrpt/io/CStream.h>
@@ -61,6 +63,50 @@ class GzipInputStream : public mrpt::io::CStream {
 /// so that data a corrupt gzip stream would deliver before its CRC-32 is checked at the end (garbage sizes and
 /// counts) never reaches a deserializer. Streams with a fixed buffer; costs one decompression of the file.
 void verifyGzipFile(const std::filesystem::path& path);
+
+/// Gzip-compressed writing of MRPT archives (maps) that uses more than one core: the bytes written are cut into
+/// blocks of `blockBytes`, and each block becomes one gzip member (RFC 1952 allows several; zlib's readers,
+/// GzipInputStream, gzip and Python read them as one stream), compressed on a thread of its own while the writer
+/// goes on; the members are written in order. At most `threads` blocks are compressed at once, so memory stays
+/// about (threads + 1) blocks whatever the size of the data. The file's bytes depend on the data, the level and the
+/// block size only (no time stamp, no file name, not the thread count or timing): the same data gives the same file.
+/// Why: saving the map is the serial end of every run, and deflate is most of its time. Writes `path` directly
+/// (callers write to a temporary file and rename: AtomicOutput). Errors throw pslam::Error "<path>: <reason>".
+class GzipOutputStream : public mrpt::io::CStream {
+ public:
+  static constexpr std::size_t kDefaultBlockBytes = std::size_t(1) << 20;
+  /// Opens (truncates) `path`. Throws on a level outside 0-9, a zero block size or thread count, or when the file
+  /// cannot be opened.
+  GzipOutputStream(std::filesystem::path path, int level, std::size_t blockBytes = kDefaultBlockBytes,
+                   unsigned threads = 2);
+  /// Without close(): waits for the blocks being compressed and closes the file, which is then incomplete.
+  ~GzipOutputStream() override;
+  GzipOutputStream(const GzipOutputStream&) = delete;
+  GzipOutputStream& operator=(const GzipOutputStream&) = delete;
+
+  size_t Write(const void* buffer, size_t count) override;
+  /// Compresses what is left, writes every member and closes the file; throws if compressing or writing failed.
+  /// A stream to which nothing was written gives one empty member (a valid gzip file). Later writes throw.
+  void close();
+  size_t Read(void* buffer, size_t count) override;                             ///< throws: write-only
+  uint64_t Seek(int64_t offset, TSeekOrigin origin = sFromBeginning) override;  ///< throws: not seekable
+  uint64_t getTotalBytesCount() const override;  ///< (uncompressed) bytes written so far
+  uint64_t getPosition() const override;         ///< the same
+  std::string getStreamDescription() const override;
+
+ private:
+  struct Impl;
+  void submitBlock();
+  void writeOldestMember();
+  std::filesystem::path path_;
+  int level_;
+  std::size_t blockBytes_;
+  unsigned threads_;
+  std::uint64_t position_ = 0;
+  bool closed_ = false, anyMember_ = false;
+  std::string block_;
+  std::unique_ptr<Impl> impl_;
+};
 
 /// The one error line of a failed read of a single-object MRPT archive file (maps, vocabularies), from the
 /// exception `e` that reading threw. The first failure wins: the gzip stream's, then `contentFailure` (what the
