@@ -13,6 +13,7 @@
 
 #include "SyntheticMap.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/GzipStream.h"
 #include "pslam/map/MapIO.h"
 
 namespace fs = std::filesystem;
@@ -129,6 +130,37 @@ TEST(MapIO, TruncatedFile) {
     writeAll(cut, bytes.substr(0, std::size_t(bytes.size() * fraction)));
     expectLoadError(cut);
   }
+}
+
+TEST(MapIO, CutBetweenGzipMembers) {
+  // A map file is gzip members of 1 MiB of the archive each (GzipOutputStream); cut right after the first, it is a
+  // valid gzip file of the first MiB of the map's bytes, which the map reader must refuse.
+  SyntheticScene scene;
+  const Map map = buildSyntheticMap(12, 2000, scene);
+  const fs::path file = tempDir() / "members.slammap";
+  saveMap(map, file);
+  std::string raw;
+  {
+    pslam::GzipInputStream in(file);
+    char buf[4096];
+    std::size_t n = 0;
+    while ((n = in.Read(buf, sizeof buf)) > 0) raw.append(buf, n);
+  }
+  const std::size_t block = pslam::GzipOutputStream::kDefaultBlockBytes;
+  ASSERT_GT(raw.size(), block) << "the map is not larger than one gzip member";
+  const fs::path firstBlock = tempDir() / "first_block.gz";
+  {
+    pslam::GzipOutputStream out(firstBlock, 1);
+    out.Write(raw.data(), block);
+    out.close();
+  }
+  const std::string first = readAll(firstBlock), bytes = readAll(file);
+  ASSERT_LT(first.size(), bytes.size());
+  ASSERT_EQ(bytes.substr(0, first.size()), first) << "the map file's first member is not its first MiB";
+  const fs::path cut = tempDir() / "cut_between.slammap";
+  writeAll(cut, first);
+  const std::string msg = expectLoadError(cut);
+  EXPECT_NE(msg.find("cut_between.slammap: "), std::string::npos) << msg;
 }
 
 TEST(MapIO, CorruptFile) {
