@@ -122,6 +122,14 @@ TEST(SlamE2E, InitializesTracksAndStaysCloseToGroundTruth) {
     EXPECT_TRUE(report["timings"].contains(stage)) << stage;
   EXPECT_TRUE(report["config"].get<std::string>().find("nFeatures") != std::string::npos);
   EXPECT_EQ(report["summary"]["frames_tracked"], s.framesTracked);
+  // The run's time split: the frames (tracking and mapping) and the outputs after them, inside the run's wall time.
+  const auto& summary = report["summary"];
+  EXPECT_GT(summary["frames_wall_seconds"].get<double>(), 0.0);
+  EXPECT_GT(summary["frames_cpu_seconds"].get<double>(), 0.0);
+  EXPECT_GT(summary["outputs_wall_seconds"].get<double>(), 0.0);
+  EXPECT_LE(summary["frames_wall_seconds"].get<double>() + summary["outputs_wall_seconds"].get<double>(),
+            summary["wall_seconds"].get<double>());
+  EXPECT_LE(summary["frames_cpu_seconds"].get<double>(), summary["cpu_seconds"].get<double>());
 }
 
 // Runs the room with the shipped config but ORB-SLAM's fusion distance band ([LocalMapping] fusionDistanceBand,

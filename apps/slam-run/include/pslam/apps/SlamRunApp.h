@@ -46,6 +46,10 @@ struct SlamRunSummary {
   long long initializedAtFrame = -1;
   std::size_t keyFrames = 0, mapPoints = 0, resets = 0;
   double wallSeconds = 0, cpuSeconds = 0;
+  /// The frames alone: from the first frame handed to the System to the end of its mapping (System::finish), wall
+  /// and process CPU (their ratio is how much of the machine tracking and mapping use), and the writing of the
+  /// outputs after it (trajectories, map, depths), wall.
+  double framesWallSeconds = 0, framesCpuSeconds = 0, outputsWallSeconds = 0;
   /// realtime: frames handed over after their time (tracking fell behind the camera) and the largest delay.
   std::size_t framesLate = 0;
   double maxLatenessSeconds = 0.0;
