@@ -532,23 +532,58 @@ TEST(SlamE2E, CorruptRawlogIsNamedCorrupt) {
   EXPECT_FALSE(fs::exists(dir / "out" / "trajectory.txt"));
 }
 
+// With progress output the rawlog's frames are counted first (the progress total); without, the range ends where
+// the rawlog does: the same frames, the same range in report.json, the same errors.
 TEST(SlamE2E, FrameRangeIsRespected) {
-  apps::SlamRunOptions o;
-  o.config = kConfig;
-  o.rawlog = roomRawlog();
-  o.outDir = tempRoot() / "range";
-  o.first = 10;
-  o.last = 14;
-  o.progress = false;
-  const auto s = apps::SlamRunApp(o).run();
-  EXPECT_EQ(s.framesProcessed, 5u);
-  const auto report = nlohmann::json::parse(readText(o.outDir / "report.json"));
-  ASSERT_EQ(report["frames"].size(), 5u);
-  EXPECT_EQ(report["frames"][0]["index"], 10);
-  EXPECT_EQ(report["frames"][4]["index"], 14);
-  o.first = 20;
-  o.last = 5;
-  EXPECT_THROW(apps::SlamRunApp(o).run(), Error);
+  for (const bool progress : {false, true}) {
+    SCOPED_TRACE(progress ? "counted" : "not counted");
+    apps::SlamRunOptions o;
+    o.config = kConfig;
+    o.rawlog = roomRawlog();
+    o.outDir = tempRoot() / "range";
+    o.first = 10;
+    o.last = 14;
+    o.progress = progress;
+    const auto s = apps::SlamRunApp(o).run();
+    EXPECT_EQ(s.framesProcessed, 5u);
+    const auto report = nlohmann::json::parse(readText(o.outDir / "report.json"));
+    ASSERT_EQ(report["frames"].size(), 5u);
+    EXPECT_EQ(report["frames"][0]["index"], 10);
+    EXPECT_EQ(report["frames"][4]["index"], 14);
+    EXPECT_EQ(report["last"], 14);
+    // A range past the rawlog's end ends at its last frame.
+    o.first = kFrames - 3;
+    o.last = 100000;
+    EXPECT_EQ(apps::SlamRunApp(o).run().framesProcessed, 3u);
+    EXPECT_EQ(nlohmann::json::parse(readText(o.outDir / "report.json"))["last"], kFrames - 1);
+    o.first = 20;
+    o.last = 5;
+    EXPECT_THROW(apps::SlamRunApp(o).run(), Error);
+    o.first = kFrames + 5;
+    o.last = -1;
+    const std::string past = errorOf([&] { apps::SlamRunApp(o).run(); });
+    EXPECT_NE(past.find("no frame in the range [" + std::to_string(kFrames + 5) + ", " + std::to_string(kFrames - 1) +
+                        "]"),
+              std::string::npos)
+        << past;
+  }
+  // A rawlog without a CAMERA frame is named, counted or not.
+  const fs::path empty = tempRoot() / "empty" / "empty.rawlog";
+  fs::create_directories(empty.parent_path());
+  {
+    datasets::RawlogWriter writer(empty);
+    writer.commit();
+  }
+  for (const bool progress : {false, true}) {
+    apps::SlamRunOptions o;
+    o.config = kConfig;
+    o.rawlog = empty;
+    o.outDir = tempRoot() / "empty_out";
+    o.progress = progress;
+    const std::string error = errorOf([&] { apps::SlamRunApp(o).run(); });
+    EXPECT_NE(error.find("empty.rawlog: rawlog has no CAMERA frame"), std::string::npos) << error;
+    EXPECT_FALSE(fs::exists(o.outDir / "trajectory.txt"));
+  }
 }
 
 TEST(SlamE2E, CliPrintsOneErrorLineAndExitsNonZero) {

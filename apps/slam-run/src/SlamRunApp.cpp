@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -167,8 +168,11 @@ SlamRunSummary SlamRunApp::run() {
   // §4.4: which path tracked each frame (a picture of where the Manhattan rotation held and where it did not).
   AtomicOutput* modesOut = params.manhattan.enabled ? &outputs.add(options_.outDir / "manhattan_modes.png") : nullptr;
 
-  const std::size_t total = datasets::RawlogReader::countFrames(options_.rawlog);
-  require(total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
+  // The frame count serves only the progress line's total. Counting decodes the whole rawlog before the first frame
+  // (seconds for one that embeds a depth image per frame), so a run without progress output does not count: its
+  // range ends where the rawlog does (0: not counted).
+  const std::size_t total = options_.progress ? datasets::RawlogReader::countFrames(options_.rawlog) : 0;
+  require(!options_.progress || total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
 
   // A map to start from is read and checked before any frame (errors name the file).
   std::optional<map::Map> loaded;
@@ -217,8 +221,11 @@ SlamRunSummary SlamRunApp::run() {
   // channels the System uses are decoded (slam-eval reads DEPTH itself for the depth ratio).
   datasets::PrefetchingRawlogReader reader(options_.rawlog, 3, system::System::channelsUsed(params));
 
-  const std::size_t lastIndex = options_.last < 0 ? total - 1 : std::min<std::size_t>(options_.last, total - 1);
-  const std::size_t toProcess = options_.first <= lastIndex ? lastIndex - options_.first + 1 : 0;
+  const std::size_t lastAsked =
+      options_.last < 0 ? std::numeric_limits<std::size_t>::max() : static_cast<std::size_t>(options_.last);
+  const std::size_t lastCounted = total > 0 ? std::min(lastAsked, total - 1) : lastAsked;
+  const std::size_t toProcess =
+      total > 0 && options_.first <= lastCounted ? lastCounted - options_.first + 1 : 0;  // 0: unknown
   Progress progress("slam-run", toProcess, options_.progress);
 
   datasets::Frame input;
@@ -231,7 +238,7 @@ SlamRunSummary SlamRunApp::run() {
   while (reader.next(input)) {
     ++sum.framesRead;
     if (input.index < options_.first) continue;
-    if (input.index > lastIndex) break;
+    if (input.index > lastAsked) break;
     if (options_.realtime) {
       // The camera's clock: frame t is due at start + (t - t_first); waiting for it leaves the mapping thread
       // the time between frames, as live.
@@ -271,7 +278,11 @@ SlamRunSummary SlamRunApp::run() {
     ++sum.framesLocalized;
     if (sum.firstLocalizedFrame < 0) sum.firstLocalizedFrame = static_cast<long long>(localizedIndex[k]);
   }
-  require(sum.framesProcessed > 0 || sum.framesRead == 0, options_.rawlog.string(),
+  require(sum.framesRead > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
+  // The range's last frame: the one asked for, or the rawlog's last (the reader stopped after the range or at the
+  // end of the rawlog, whose frames are numbered from 0).
+  const std::size_t lastIndex = std::min(lastAsked, sum.framesRead - 1);
+  require(sum.framesProcessed > 0, options_.rawlog.string(),
           "no frame in the range [" + std::to_string(options_.first) + ", " + std::to_string(lastIndex) + "]");
   system::System& slamRef = *slam;
   slamRef.finish();
