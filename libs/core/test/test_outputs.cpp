@@ -39,6 +39,17 @@ std::string readAll(const fs::path& p) {
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
+// Everything a GzipInputStream reads from `p`, in pieces smaller than a block; expects the verified end.
+std::string readGzipThrough(const fs::path& p) {
+  GzipInputStream in(p);
+  std::string out;
+  char buf[1000];
+  std::size_t n = 0;
+  while ((n = in.Read(buf, sizeof buf)) > 0) out.append(buf, n);
+  EXPECT_TRUE(in.atEnd());
+  return out;
+}
+
 template <typename F>
 std::string errorOf(F&& f) {
   try {
@@ -214,32 +225,23 @@ TEST(GzipInputStream, VerifiesTheStreamToItsEnd) {
     mrpt::io::CFileGZOutputStream out((d / "ok.gz").string());
     out.Write(payload.data(), payload.size());
   }
-  auto readThrough = [](const fs::path& p) {
-    GzipInputStream in(p);
-    std::string out;
-    char buf[1000];
-    std::size_t n = 0;
-    while ((n = in.Read(buf, sizeof buf)) > 0) out.append(buf, n);
-    EXPECT_TRUE(in.atEnd());
-    return out;
-  };
-  EXPECT_EQ(readThrough(d / "ok.gz"), payload);
+  EXPECT_EQ(readGzipThrough(d / "ok.gz"), payload);
   const std::string gz = readAll(d / "ok.gz");
 
   std::string crc = gz;
   crc[crc.size() - 6] = static_cast<char>(crc[crc.size() - 6] ^ 0x10);  // CRC-32 of the trailer
   std::ofstream(d / "crc.gz", std::ios::binary) << crc;
-  const std::string crcError = errorOf([&] { readThrough(d / "crc.gz"); });
+  const std::string crcError = errorOf([&] { readGzipThrough(d / "crc.gz"); });
   EXPECT_NE(crcError.find("crc.gz: corrupt gzip data (zlib: incorrect data check, found at compressed byte"), std::string::npos) << crcError;
   EXPECT_NE(crcError.find("incorrect data check"), std::string::npos) << crcError;
 
   std::string length = gz;
   length[length.size() - 2] = static_cast<char>(length[length.size() - 2] ^ 0x01);  // ISIZE of the trailer
   std::ofstream(d / "length.gz", std::ios::binary) << length;
-  EXPECT_NE(errorOf([&] { readThrough(d / "length.gz"); }).find("incorrect length check"), std::string::npos);
+  EXPECT_NE(errorOf([&] { readGzipThrough(d / "length.gz"); }).find("incorrect length check"), std::string::npos);
 
   std::ofstream(d / "cut.gz", std::ios::binary) << gz.substr(0, gz.size() / 2);
-  EXPECT_NE(errorOf([&] { readThrough(d / "cut.gz"); }).find("cut.gz: truncated"), std::string::npos);
+  EXPECT_NE(errorOf([&] { readGzipThrough(d / "cut.gz"); }).find("cut.gz: truncated"), std::string::npos);
 
   std::ofstream(d / "plain.txt", std::ios::binary) << "plain text";
   {
@@ -258,16 +260,6 @@ TEST(GzipOutputStream, BlocksReadAsOneStreamAndTheBytesDependOnTheDataOnly) {
   std::string payload;  // compressible text and bytes that hardly compress, as a map's descriptors
   for (int i = 0; i < 30000; ++i) payload += std::to_string(i * 7919 % 10007) + ",";
   for (int i = 0; i < 100000; ++i) payload += static_cast<char>((i * 2654435761u) >> 24);
-  auto readThrough = [](const fs::path& p) {
-    GzipInputStream in(p);
-    EXPECT_TRUE(in.compressed());
-    std::string out;
-    char buf[4096];
-    std::size_t n = 0;
-    while ((n = in.Read(buf, sizeof buf)) > 0) out.append(buf, n);
-    EXPECT_TRUE(in.atEnd());
-    return out;
-  };
   // Written in pieces of `piece` bytes (0: in one call).
   auto write = [&](const fs::path& p, int level, std::size_t block, unsigned threads, std::size_t piece) {
     GzipOutputStream out(p, level, block, threads);
@@ -280,7 +272,7 @@ TEST(GzipOutputStream, BlocksReadAsOneStreamAndTheBytesDependOnTheDataOnly) {
     SCOPED_TRACE(block);
     write(d / "one_thread.gz", 1, block, 1, 0);
     const std::string reference = readAll(d / "one_thread.gz");
-    EXPECT_EQ(readThrough(d / "one_thread.gz"), payload);
+    EXPECT_EQ(readGzipThrough(d / "one_thread.gz"), payload);
     EXPECT_NO_THROW(verifyGzipFile(d / "one_thread.gz"));
     for (const unsigned threads : {2u, 3u}) {
       for (const std::size_t piece : {std::size_t(0), std::size_t(1000), std::size_t(65537)}) {
@@ -307,18 +299,18 @@ TEST(GzipOutputStream, BlocksReadAsOneStreamAndTheBytesDependOnTheDataOnly) {
   const std::string blocks = readAll(d / "blocks.gz"), first = readAll(d / "first.gz");
   ASSERT_LT(first.size(), blocks.size());
   EXPECT_EQ(blocks.substr(0, first.size()), first);
-  EXPECT_EQ(readThrough(d / "first.gz"), payload.substr(0, block));
+  EXPECT_EQ(readGzipThrough(d / "first.gz"), payload.substr(0, block));
   // Level 0 stores; nothing written is a valid empty file; a close without writes or twice is harmless.
   write(d / "stored.gz", 0, 1 << 20, 2, 0);
   EXPECT_GT(fs::file_size(d / "stored.gz"), payload.size());
-  EXPECT_EQ(readThrough(d / "stored.gz"), payload);
+  EXPECT_EQ(readGzipThrough(d / "stored.gz"), payload);
   {
     GzipOutputStream empty(d / "empty.gz", 6);
     empty.close();
     empty.close();
     EXPECT_NE(errorOf([&] { empty.Write("a", 1); }).find("empty.gz: written after it was closed"), std::string::npos);
   }
-  EXPECT_EQ(readThrough(d / "empty.gz"), "");
+  EXPECT_EQ(readGzipThrough(d / "empty.gz"), "");
   EXPECT_NE(errorOf([&] { GzipOutputStream s(d / "x.gz", 10); }).find("x.gz: gzip level 10 is not in 0-9"),
             std::string::npos);
   EXPECT_NE(errorOf([&] { GzipOutputStream s(d / "x.gz", 1, 0); }).find("x.gz: gzip blocks of 0 bytes"),
