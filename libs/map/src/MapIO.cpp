@@ -332,7 +332,7 @@ void saveMap(Map map, const std::filesystem::path& path) {
   map.checkInvariants(path.string() + ": refusing to save an inconsistent map");
   AtomicOutput out(path);
   // Compressed at level 1 in blocks on two threads while the map is serialized (GzipOutputStream): saving is the
-  // serial end of every run, and deflate was most of its time (doc/performance.md, "Saving the map").
+  // serial end of every run, and deflate was most of its time (doc/performance.md, "the map saved on two threads").
   try {
     GzipOutputStream stream(out.tempPath(), kMapGzipLevel);
     CSlamMapArchive wrapper;

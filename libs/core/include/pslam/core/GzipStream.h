@@ -68,8 +68,8 @@ void verifyGzipFile(const std::filesystem::path& path);
 /// blocks of `blockBytes`, and each block becomes one gzip member (RFC 1952 allows several; zlib's readers,
 /// GzipInputStream, gzip and Python read them as one stream), compressed on a thread of its own while the writer
 /// goes on; the members are written in order. At most `threads` blocks are compressed at once, so memory stays
-/// about (threads + 1) blocks whatever the size of the data. The file's bytes depend on the data, the level and the
-/// block size only (no time stamp, no file name, not the thread count or timing): the same data gives the same file.
+/// about (threads + 1) blocks whatever the size of the data. The file's bytes depend on the data, the level, the
+/// block size and zlib's version only (no time stamp, no file name, not the thread count or timing).
 /// Why: saving the map is the serial end of every run, and deflate is most of its time. Writes `path` directly
 /// (callers write to a temporary file and rename: AtomicOutput). Errors throw pslam::Error "<path>: <reason>".
 class GzipOutputStream : public mrpt::io::CStream {
