@@ -9,8 +9,8 @@
 #   bash scripts/run-sanitizers.sh --thread # ThreadSanitizer build of the e2e tests, running the threaded-mode
 #                                           # tests (tracking and local mapping in two threads), the
 #                                           # local-mapping unit tests (its computations outside the map lock)
-#                                           # the prefetching rawlog reader's tests and the ORB
-#                                           # extractor's level threads
+#                                           # the prefetching rawlog reader's tests, the ORB
+#                                           # extractor's level threads and the map's gzip writer
 # Env: SANITIZE_BUILD_DIR (default build-sanitize), SANITIZE_JOBS (default 2); ccache is used when installed.
 # Called by .ci/run after scripts/run-tests.sh, which has installed the dependencies.
 set -euo pipefail
@@ -40,7 +40,7 @@ if [[ $SCOPE == thread ]]; then
     -DCMAKE_EXE_LINKER_FLAGS_TSAN=-fsanitize=thread -DCMAKE_SHARED_LINKER_FLAGS_TSAN=-fsanitize=thread \
     -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
   cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper test_rawlog \
-    test_global_ba_writeback test_places_e2e features_test_orb_extractor
+    test_global_ba_writeback test_places_e2e features_test_orb_extractor test_outputs
   built=$(date +%s)
   export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}
   export OPENCV_FOR_THREADS_NUM=1
@@ -58,6 +58,8 @@ if [[ $SCOPE == thread ]]; then
   GTEST_FILTER='*Threaded*' ctest --test-dir "$BUILD_DIR" -R '^test_places_e2e$' --output-on-failure
   # The ORB extractor shares out its pyramid levels over [ORB] threads (every run above does too).
   GTEST_FILTER='*Threads*' ctest --test-dir "$BUILD_DIR" -R '^features_test_orb_extractor$' --output-on-failure
+  # A map file's gzip blocks are compressed on threads of their own (GzipOutputStream; every map saved above too).
+  GTEST_FILTER='GzipOutputStream.*' ctest --test-dir "$BUILD_DIR" -R '^test_outputs$' --output-on-failure
   done_=$(date +%s)
   echo "run-sanitizers (thread): build $((built - start)) s, tests $((done_ - built)) s"
   exit 0
