@@ -171,8 +171,8 @@ SlamRunSummary SlamRunApp::run() {
   // The frame count serves only the progress line's total. Counting decodes the whole rawlog before the first frame
   // (seconds for one that embeds a depth image per frame), so a run without progress output does not count: its
   // range ends where the rawlog does (0: not counted).
+  // A rawlog without frames is refused after the reading loop, counted or not.
   const std::size_t total = options_.progress ? datasets::RawlogReader::countFrames(options_.rawlog) : 0;
-  require(!options_.progress || total > 0, options_.rawlog.string(), "rawlog has no CAMERA frame");
 
   // A map to start from is read and checked before any frame (errors name the file).
   std::optional<map::Map> loaded;
