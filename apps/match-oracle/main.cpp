@@ -11,7 +11,8 @@ int main(int argc, char** argv) {
       "match-oracle: for frame pairs (k, k+s) of a rawlog with DEPTH and ground truth, the ORB keypoints of frame k\n"
       "moved into frame k+s by the true poses, and how many find a keypoint there (repeated), a descriptor within\n"
       "--max-hamming (matchable) and the whole-image nearest neighbour (found_nn). An upper bound on what any ORB\n"
-      "tracker can match between two views.\n"
+      "tracker can match between two views. Per pyramid level, where the matchable correspondences land against\n"
+      "the true transfer (mean, RMS, median and 90th percentile in level pixels): how repeatably keypoints sit.\n"
       "Example: match-oracle cabinet.rawlog --config config/slam/structure.ini --steps 2 --json oracle.json"};
   pslam::features::MatchOracleOptions o;
   std::string rawlog, gt, config, json, plot;

@@ -45,7 +45,8 @@ double depthAt(const cv::Mat& depth, double units, double u, double v) {
 }
 
 PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img::TCamera& cam,
-                     const std::vector<float>& scales, const MatchOracleOptions& o) {
+                     const std::vector<float>& scales, const MatchOracleOptions& o,
+                     std::vector<LevelOffsets>& offsets) {
   PairCounts c;
   c.first = a.index;
   c.second = b.index;
@@ -80,8 +81,13 @@ PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img
     if (inRadius.empty()) continue;
     ++c.repeated;
     const uint8_t* descriptor = a.descriptors.ptr<uint8_t>(static_cast<int>(i));
-    if (bestCandidate(descriptor, b.descriptors, inRadius).distance > o.maxHamming) continue;
+    const BestCandidate inside = bestCandidate(descriptor, b.descriptors, inRadius);
+    if (inside.distance > o.maxHamming) continue;
     ++c.matchable;
+    const std::size_t level = static_cast<std::size_t>(a.keypoints[i].octave);
+    const cv::Point2f& q = b.keypoints[static_cast<std::size_t>(inside.index)].pt;
+    offsets[level].dx.push_back(static_cast<float>((q.x - u) / scales[level]));
+    offsets[level].dy.push_back(static_cast<float>((q.y - v) / scales[level]));
     // What a search without any pose prediction finds: the nearest descriptor over the whole image, kept when
     // it passes the threshold and the ratio test; correct when it lies within the radius.
     const BestCandidate nn = bestCandidate(descriptor, b.descriptors, all);
@@ -137,6 +143,8 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
   Progress progress("match-oracle", datasets::RawlogReader::countFrames(o.rawlog), o.progress);
   OrbExtractor extractor(slam.orb);
   MatchOracleResult result;
+  result.offsets.resize(extractor.scaleFactors().size());
+  for (std::size_t l = 0; l < result.offsets.size(); ++l) result.offsets[l].level = static_cast<int>(l);
   std::deque<OracleFrame> window;  // the last `steps` frames
   mrpt::img::TCamera camera;
   datasets::Frame frame;
@@ -163,7 +171,7 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
       f.keypointDepth.push_back(depthAt(f.depth, f.depthUnits, kp.pt.x, kp.pt.y));
     for (std::size_t back = 0; back < window.size(); ++back) {
       const OracleFrame& first = window[window.size() - 1 - back];
-      PairCounts c = countPair(first, f, camera, extractor.scaleFactors(), o);
+      PairCounts c = countPair(first, f, camera, extractor.scaleFactors(), o, result.offsets);
       c.step = static_cast<int>(back) + 1;
       result.pairs.push_back(c);
     }
@@ -221,6 +229,37 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
   }
   text += "(medians over the pairs; pairs>=: pairs with at least " + std::to_string(o.minMatches) +
           " matchable correspondences)\n";
+
+  // Where the matchable correspondences land, per pyramid level (LevelOffsets).
+  nlohmann::json perLevel = nlohmann::json::array();
+  text += "matchable correspondences: second keypoint - first moved by the true poses, in level pixels\n";
+  std::snprintf(line, sizeof line, "%5s %8s %8s %8s %8s %10s %9s\n", "level", "n", "mean_x", "mean_y", "rms",
+                "median|e|", "p90|e|");
+  text += line;
+  for (const LevelOffsets& l : result.offsets) {
+    if (l.dx.empty()) continue;
+    double sx = 0, sy = 0, ss = 0;
+    std::vector<double> norms;
+    norms.reserve(l.dx.size());
+    for (std::size_t i = 0; i < l.dx.size(); ++i) {
+      sx += l.dx[i];
+      sy += l.dy[i];
+      ss += double(l.dx[i]) * l.dx[i] + double(l.dy[i]) * l.dy[i];
+      norms.push_back(std::hypot(double(l.dx[i]), double(l.dy[i])));
+    }
+    const double n = static_cast<double>(l.dx.size());
+    const double rms = std::sqrt(ss / n), median = percentile(norms, 50.0), p90 = percentile(norms, 90.0);
+    perLevel.push_back({{"level", l.level},
+                        {"correspondences", l.dx.size()},
+                        {"mean_x_level_px", sx / n},
+                        {"mean_y_level_px", sy / n},
+                        {"rms_level_px", rms},
+                        {"median_norm_level_px", median},
+                        {"p90_norm_level_px", p90}});
+    std::snprintf(line, sizeof line, "%5d %8zu %+8.3f %+8.3f %8.3f %10.3f %9.3f\n", l.level, l.dx.size(), sx / n,
+                  sy / n, rms, median, p90);
+    text += line;
+  }
   nlohmann::json pairs = nlohmann::json::array();
   for (const PairCounts& c : result.pairs) pairs.push_back(toJson(c));
   result.report = {{"tool", "match-oracle"},
@@ -242,6 +281,7 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
                      {"scaleFactor", slam.orb.scaleFactor}}},
                    {"frames", nFrames},
                    {"per_step", perStep},
+                   {"keypoint_offsets", perLevel},
                    {"pairs", pairs}};
   result.text = text;
   if (jsonOut) writeOutputFile(*jsonOut, [&](std::ostream& os) { os << result.report.dump(2) << "\n"; });

@@ -2,6 +2,7 @@
 // poses and lost with wrong ones, and bad input is an error naming the file.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -67,6 +68,40 @@ TEST(MatchOracle, TruePosesCarryMostKeypointsOntoTheirCorrespondences) {
   }
   ASSERT_EQ(r.report["per_step"].size(), 2u);
   EXPECT_EQ(r.report["per_step"][0]["pairs"], 4);
+}
+
+TEST(MatchOracle, KeypointOffsetsAreInLevelPixelsAndCoverEveryMatchableCorrespondence) {
+  features::MatchOracleOptions o = options();
+  o.radius = 2.0;
+  const features::MatchOracleResult r = features::runMatchOracle(o);
+  std::size_t matchable = 0, offsets = 0;
+  for (const features::PairCounts& c : r.pairs) matchable += c.matchable;
+  ASSERT_EQ(r.offsets.size(), 8u);  // synthetic.ini: 8 pyramid levels
+  ASSERT_EQ(r.report["keypoint_offsets"].size(), 8u);
+  for (const features::LevelOffsets& l : r.offsets) {
+    SCOPED_TRACE("level " + std::to_string(l.level));
+    ASSERT_EQ(l.dx.size(), l.dy.size());
+    offsets += l.dx.size();
+    ASSERT_GT(l.dx.size(), 20u);
+    // Within the radius of 2 level pixels, and centred: the true poses leave no systematic shift.
+    double sx = 0, sy = 0, ss = 0;
+    for (std::size_t i = 0; i < l.dx.size(); ++i) {
+      EXPECT_LE(std::hypot(l.dx[i], l.dy[i]), 2.0 + 1e-4);
+      sx += l.dx[i];
+      sy += l.dy[i];
+      ss += double(l.dx[i]) * l.dx[i] + double(l.dy[i]) * l.dy[i];
+    }
+    const double n = static_cast<double>(l.dx.size());
+    EXPECT_LT(std::abs(sx / n), 0.3);
+    EXPECT_LT(std::abs(sy / n), 0.3);
+    // In level pixels every level re-detects alike (in level-0 pixels level 7 would be 1.2^7 = 3.6 times level 0).
+    const double rms = std::sqrt(ss / n);
+    EXPECT_GT(rms, 0.2);
+    EXPECT_LT(rms, 1.2);
+    EXPECT_NEAR(r.report["keypoint_offsets"][static_cast<std::size_t>(l.level)]["rms_level_px"].get<double>(), rms,
+                1e-6);
+  }
+  EXPECT_EQ(offsets, matchable);
 }
 
 TEST(MatchOracle, WritesTheJsonAndThePlotTogether) {

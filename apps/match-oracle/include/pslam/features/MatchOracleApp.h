@@ -49,8 +49,20 @@ struct PairCounts {
   std::size_t foundByDescriptor = 0;  ///< ... which the whole-image nearest neighbour (ratio test) also finds
 };
 
+/// Where the matchable correspondences land: the second frame's keypoint (the best descriptor within the radius)
+/// minus the first frame's keypoint moved there by the true poses and depth, in pixels of the first keypoint's
+/// pyramid level (level-0 pixels / its scale). It measures how consistently the extractor places a keypoint on
+/// the same surface point in two views, the noise a bundle adjustment of these keypoints sees; an error common
+/// to both views (a corner detected half a pixel inside in both) cancels. Pixel-grid rounding alone gives
+/// uniform errors of RMS 0.41 level px per view, 0.58 for the difference of two.
+struct LevelOffsets {
+  int level = 0;
+  std::vector<float> dx, dy;  ///< [level px], one entry per matchable correspondence of this level
+};
+
 struct MatchOracleResult {
   std::vector<PairCounts> pairs;
+  std::vector<LevelOffsets> offsets;  ///< per pyramid level of the first keypoint, every pair and step
   nlohmann::json report;  ///< options, per pair, summary per step
   std::string text;       ///< summary table per step
 };
