@@ -64,7 +64,7 @@ struct MatchOracleResult {
   std::vector<PairCounts> pairs;
   std::vector<LevelOffsets> offsets;  ///< per pyramid level of the first keypoint, every pair and step
   nlohmann::json report;  ///< options, per pair, summary per step
-  std::string text;       ///< summary table per step
+  std::string text;       ///< summary tables: per step, then the offsets per level
 };
 
 /// Throws pslam::Error naming the file or option on bad input: no depth, no ground truth for a frame, lens
