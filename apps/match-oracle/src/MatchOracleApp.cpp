@@ -16,6 +16,7 @@
 #include "pslam/core/StageTimer.h"
 #include "pslam/core/Trajectory.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam/eval/Metrics.h"
 #include "pslam/eval/Plot.h"
 #include "pslam/features/Matching.h"
 #include "pslam/features/OrbExtractor.h"
@@ -238,26 +239,24 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
   text += line;
   for (const LevelOffsets& l : result.offsets) {
     if (l.dx.empty()) continue;
-    double sx = 0, sy = 0, ss = 0;
     std::vector<double> norms;
     norms.reserve(l.dx.size());
-    for (std::size_t i = 0; i < l.dx.size(); ++i) {
-      sx += l.dx[i];
-      sy += l.dy[i];
-      ss += double(l.dx[i]) * l.dx[i] + double(l.dy[i]) * l.dy[i];
-      norms.push_back(std::hypot(double(l.dx[i]), double(l.dy[i])));
-    }
+    for (std::size_t i = 0; i < l.dx.size(); ++i) norms.push_back(std::hypot(double(l.dx[i]), double(l.dy[i])));
     const double n = static_cast<double>(l.dx.size());
-    const double rms = std::sqrt(ss / n), median = percentile(norms, 50.0), p90 = percentile(norms, 90.0);
+    const double meanX = std::accumulate(l.dx.begin(), l.dx.end(), 0.0) / n;
+    const double meanY = std::accumulate(l.dy.begin(), l.dy.end(), 0.0) / n;
+    // The RMS of the offset vectors is that of their norms.
+    const eval::ErrorStatistics stats = eval::computeStatistics(norms, "keypoint offsets");
+    const double p90 = percentile(norms, 90.0);
     perLevel.push_back({{"level", l.level},
                         {"correspondences", l.dx.size()},
-                        {"mean_x_level_px", sx / n},
-                        {"mean_y_level_px", sy / n},
-                        {"rms_level_px", rms},
-                        {"median_norm_level_px", median},
+                        {"mean_x_level_px", meanX},
+                        {"mean_y_level_px", meanY},
+                        {"rms_level_px", stats.rmse},
+                        {"median_norm_level_px", stats.median},
                         {"p90_norm_level_px", p90}});
-    std::snprintf(line, sizeof line, "%5d %8zu %+8.3f %+8.3f %8.3f %10.3f %9.3f\n", l.level, l.dx.size(), sx / n,
-                  sy / n, rms, median, p90);
+    std::snprintf(line, sizeof line, "%5d %8zu %+8.3f %+8.3f %8.3f %10.3f %9.3f\n", l.level, l.dx.size(), meanX,
+                  meanY, stats.rmse, stats.median, p90);
     text += line;
   }
   nlohmann::json pairs = nlohmann::json::array();
