@@ -749,6 +749,11 @@ LocalMappingReport LocalMapper::processKeyFrame(KeyFrameId kfId, const std::vect
   t = Clock::now();
   report.fusedPoints = searchInNeighbors(kfId);
   report.fusionMs = msSince(t);
+  if (refiner_) {
+    t = Clock::now();
+    report.refinement = refiner_->refine(map_, kfId);
+    report.refinementMs = msSince(t);
+  }
   if (newPointsReady_) newPointsReady_(kfId);
 
   if (params_.localBundleAdjustment && map_.numKeyFrames() > 2) {

@@ -77,6 +77,11 @@ struct System::Impl {
     if (params.directFeatures.enabled && params.mapping.minTriangulationNeighbours == 0)
       params.mapping.minTriangulationNeighbours = 2;
     mapper = std::make_unique<mapping::LocalMapper>(map, params.mapping);
+    if (params.mapping.refinement.enabled) {
+      // Keyframe observations aligned to their point's anchor patch before local BA (doc/mapping.md).
+      refiner = std::make_shared<mapping::ObservationRefiner>(params.mapping.refinement, camera);
+      mapper->setObservationRefiner(refiner);
+    }
     tracker = std::make_unique<tracking::Tracker>(
         map, camera, params.tracking,
         tracking::makeMapInitializer(params.system.initializer, camera, params.initializer, params.bundleAdjustment),
@@ -262,7 +267,10 @@ struct System::Impl {
                             {"culled_keyframes", r.culledKeyFrames},
                             {"ba_observations_erased", r.baObservationsErased},
                             {"ba_stopped", r.baStopped},
+                            {"ba_final_rms_px", r.baFinalRmsPixels},
                             {"fused", r.fusedPoints},
+                            {"refined_observations", r.refinement.refined},
+                            {"refinement_tried", r.refinement.tried},
                             {"map_points", map.numMapPoints()},
                             {"keyframes", map.numKeyFrames()}});
       // ---- line segments: new lines of the keyframe with its covisible keyframes (after local BA)
@@ -296,6 +304,7 @@ struct System::Impl {
       mappingTimings.add("culling_points", r.cullPointsMs);
       mappingTimings.add("triangulation", r.triangulationMs);
       mappingTimings.add("fusion", r.fusionMs);
+      if (refiner) mappingTimings.add("observation_refinement", r.refinementMs);
       mappingTimings.add("local_ba", r.localBaMs);
       mappingTimings.add("culling_keyframes", r.cullKeyFramesMs);
       mappingTimings.add("mapping_total", r.totalMs);
@@ -389,6 +398,7 @@ struct System::Impl {
   std::shared_ptr<direct::DirectFrontEnd> directFrontEnd;  ///< null unless [DirectFeatures] enabled
   std::unique_ptr<manhattan::ManhattanTracker> manhattanTracker;  ///< null unless [Manhattan] enabled
   std::shared_ptr<lines::LineFrontEnd> lineFrontEnd;       ///< null unless [Lines] enabled
+  std::shared_ptr<mapping::ObservationRefiner> refiner;   ///< null unless [LocalMapping] refinement.enabled
   std::unique_ptr<loopclosing::LoopCloser> loopCloser;     ///< null unless [LoopClosing] enabled
   nlohmann::json loops = nlohmann::json::array();          ///< loop-closing reports with candidates
   StageTimings trackingTimings, mappingTimings;
@@ -609,6 +619,16 @@ TrackResult System::track(const datasets::Frame& input) {
       s.newGeneration();
       if (s.directFrontEnd) s.directFrontEnd->reset();
       if (s.lineFrontEnd) s.lineFrontEnd->reset();
+      if (s.refiner) s.refiner->reset();
+    }
+    if (s.refiner && s.mappingEnabled && !res.newKeyFrames.empty()) {
+      // The two keyframes of a new map: the initializer's reference frame and this one.
+      if (res.initialReferencePose) s.refiner->reset();
+      for (std::size_t k = 0; k < res.newKeyFrames.size(); ++k) {
+        const bool reference = res.initialReferencePose && k == 0;
+        s.refiner->addKeyFrame(res.newKeyFrames[k], reference ? res.initialReferenceGrey : grey,
+                               s.map.keyFrame(res.newKeyFrames[k]).scaleFactors);
+      }
     }
     if (s.lineFrontEnd && s.mappingEnabled && !res.newKeyFrames.empty()) {  // ---- line segments: keyframes
       // The two keyframes of a new map: the initializer's reference frame and this one (no lines matched yet).
@@ -832,6 +852,7 @@ void System::setMap(map::Map loaded, const std::string& source) {
   impl_->mapper->reset();
   if (impl_->directFrontEnd) impl_->directFrontEnd->reset();
   if (impl_->lineFrontEnd) impl_->lineFrontEnd->reset();
+  if (impl_->refiner) impl_->refiner->reset();
   impl_->tracker->onMapLoaded();
   impl_->newGeneration();  // resets loop closing
   // The lines, loop edges and direct points the map was saved with (its extensions "lines", "loop_edges",
@@ -859,6 +880,7 @@ void System::reset() {
   impl_->mapper->reset();
   if (impl_->directFrontEnd) impl_->directFrontEnd->reset();
   if (impl_->lineFrontEnd) impl_->lineFrontEnd->reset();
+  if (impl_->refiner) impl_->refiner->reset();
   impl_->newGeneration();
   impl_->counters.initializedAtFrame = -1;
 }
