@@ -20,6 +20,7 @@
 #include "pslam/eval/Plot.h"
 #include "pslam/features/Matching.h"
 #include "pslam/features/OrbExtractor.h"
+#include "pslam/features/PatchAlignment.h"
 #include "pslam/system/SlamParams.h"
 
 namespace fs = std::filesystem;
@@ -37,6 +38,7 @@ struct OracleFrame {
   cv::Mat depth;                      ///< CV_16UC1
   double depthUnits = 0;
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
+  std::shared_ptr<const ImagePyramid> pyramid;  ///< with --align
 };
 
 double depthAt(const cv::Mat& depth, double units, double u, double v) {
@@ -47,7 +49,7 @@ double depthAt(const cv::Mat& depth, double units, double u, double v) {
 
 PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img::TCamera& cam,
                      const std::vector<float>& scales, const MatchOracleOptions& o,
-                     std::vector<LevelOffsets>& offsets) {
+                     std::vector<LevelOffsets>& offsets, const PatchAlignmentParams& alignment) {
   PairCounts c;
   c.first = a.index;
   c.second = b.index;
@@ -89,6 +91,31 @@ PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img
     const cv::Point2f& q = b.keypoints[static_cast<std::size_t>(inside.index)].pt;
     offsets[level].dx.push_back(static_cast<float>((q.x - u) / scales[level]));
     offsets[level].dy.push_back(static_cast<float>((q.y - v) / scales[level]));
+    if (o.align) {
+      // The second keypoint aligned to the first one's patch, with the warp the true geometry predicts for a
+      // fronto-parallel patch at the first keypoint's depth (what ObservationRefiner does with estimates).
+      const cv::KeyPoint& kb = b.keypoints[static_cast<std::size_t>(inside.index)];
+      const int la = a.keypoints[i].octave, lb = kb.octave;
+      const Eigen::Vector2d ca = a.pyramid->toLevel(Eigen::Vector2d(p.x, p.y), la);
+      const auto transfer = [&](const Eigen::Vector2d& levelPixel) {
+        const Eigen::Vector2d x = a.pyramid->toLevel0(levelPixel, la);
+        const Eigen::Vector3d Pb = T_b_a * Eigen::Vector3d((x.x() - cx) / fx * d, (x.y() - cy) / fy * d, d);
+        return b.pyramid->toLevel(Eigen::Vector2d(fx * Pb.x() / Pb.z() + cx, fy * Pb.y() / Pb.z() + cy), lb);
+      };
+      const double h = alignment.halfPatch;
+      const Eigen::Vector2d c0 = transfer(ca);
+      Eigen::Matrix2d A;
+      A.col(0) = (transfer(ca + Eigen::Vector2d(h, 0)) - c0) / h;
+      A.col(1) = (transfer(ca + Eigen::Vector2d(0, h)) - c0) / h;
+      const Eigen::Vector2d start = b.pyramid->toLevel(Eigen::Vector2d(kb.pt.x, kb.pt.y), lb);
+      ++offsets[level].alignTried;
+      const PatchAlignmentResult r = alignPatch(a.pyramid->level(la), ca, A, b.pyramid->level(lb), start, alignment);
+      if (r.accepted) {
+        const Eigen::Vector2d e = b.pyramid->toLevel0(r.position, lb) - Eigen::Vector2d(u, v);
+        offsets[level].alignedDx.push_back(static_cast<float>(e.x() / scales[level]));
+        offsets[level].alignedDy.push_back(static_cast<float>(e.y() / scales[level]));
+      }
+    }
     // What a search without any pose prediction finds: the nearest descriptor over the whole image, kept when
     // it passes the threshold and the ratio test; correct when it lies within the radius.
     const BestCandidate nn = bestCandidate(descriptor, b.descriptors, all);
@@ -167,12 +194,17 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
     cv::Mat grey = frame.image;
     if (grey.channels() == 3) cv::cvtColor(frame.image, grey, cv::COLOR_BGR2GRAY);
     extractor.extract(grey, f.keypoints, f.descriptors);
+    if (o.align) {
+      const std::vector<float>& s = extractor.scaleFactors();
+      f.pyramid = std::make_shared<const ImagePyramid>(grey, std::vector<double>(s.begin(), s.end()));
+    }
     f.keypointDepth.reserve(f.keypoints.size());
     for (const cv::KeyPoint& kp : f.keypoints)
       f.keypointDepth.push_back(depthAt(f.depth, f.depthUnits, kp.pt.x, kp.pt.y));
     for (std::size_t back = 0; back < window.size(); ++back) {
       const OracleFrame& first = window[window.size() - 1 - back];
-      PairCounts c = countPair(first, f, camera, extractor.scaleFactors(), o, result.offsets);
+      PairCounts c = countPair(first, f, camera, extractor.scaleFactors(), o, result.offsets,
+                               slam.mapping.refinement.alignment);
       c.step = static_cast<int>(back) + 1;
       result.pairs.push_back(c);
     }
@@ -259,6 +291,37 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
                   meanY, stats.rmse, stats.median, p90);
     text += line;
   }
+  if (o.align) {
+    text += "aligned to the first keypoint's patch ([LocalMapping] refinement.*): accepted second keypoints, same "
+            "transfer\n";
+    std::snprintf(line, sizeof line, "%5s %8s %9s %8s %8s %8s %10s %9s\n", "level", "tried", "accepted", "mean_x",
+                  "mean_y", "rms", "median|e|", "p90|e|");
+    text += line;
+    std::size_t levelIndex = 0;
+    for (const LevelOffsets& l : result.offsets) {
+      if (l.dx.empty()) continue;  // perLevel holds the levels with correspondences, in order
+      nlohmann::json& entry = perLevel.at(levelIndex++);
+      entry["align_tried"] = l.alignTried;
+      entry["align_accepted"] = l.alignedDx.size();
+      if (l.alignedDx.empty()) continue;
+      std::vector<double> norms;
+      for (std::size_t i = 0; i < l.alignedDx.size(); ++i)
+        norms.push_back(std::hypot(double(l.alignedDx[i]), double(l.alignedDy[i])));
+      const double n = static_cast<double>(norms.size());
+      const double meanX = std::accumulate(l.alignedDx.begin(), l.alignedDx.end(), 0.0) / n;
+      const double meanY = std::accumulate(l.alignedDy.begin(), l.alignedDy.end(), 0.0) / n;
+      const eval::ErrorStatistics stats = eval::computeStatistics(norms, "aligned keypoint offsets");
+      const double p90 = percentile(norms, 90.0);
+      entry["aligned_mean_x_level_px"] = meanX;
+      entry["aligned_mean_y_level_px"] = meanY;
+      entry["aligned_rms_level_px"] = stats.rmse;
+      entry["aligned_median_norm_level_px"] = stats.median;
+      entry["aligned_p90_norm_level_px"] = p90;
+      std::snprintf(line, sizeof line, "%5d %8zu %9zu %+8.3f %+8.3f %8.3f %10.3f %9.3f\n", l.level, l.alignTried,
+                    l.alignedDx.size(), meanX, meanY, stats.rmse, stats.median, p90);
+      text += line;
+    }
+  }
   nlohmann::json pairs = nlohmann::json::array();
   for (const PairCounts& c : result.pairs) pairs.push_back(toJson(c));
   result.report = {{"tool", "match-oracle"},
@@ -273,7 +336,8 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
                      {"ratio", o.ratio},
                      {"depth_tolerance", o.depthTolerance},
                      {"max_gt_dt", o.maxGroundTruthDt},
-                     {"min_matches", o.minMatches}}},
+                     {"min_matches", o.minMatches},
+                     {"align", o.align}}},
                    {"orb",
                     {{"nFeatures", slam.orb.nFeatures},
                      {"nLevels", slam.orb.nLevels},

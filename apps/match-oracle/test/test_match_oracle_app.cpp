@@ -2,6 +2,8 @@
 // poses and lost with wrong ones, and bad input is an error naming the file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -102,6 +104,41 @@ TEST(MatchOracle, KeypointOffsetsAreInLevelPixelsAndCoverEveryMatchableCorrespon
                 1e-6);
   }
   EXPECT_EQ(offsets, matchable);
+}
+
+TEST(MatchOracle, AlignedKeypointsSitCloserToTheTrueTransferThanDetectedOnes) {
+  features::MatchOracleOptions o = options();
+  o.radius = 2.0;
+  const features::MatchOracleResult plain = features::runMatchOracle(o);
+  for (const features::LevelOffsets& l : plain.offsets) EXPECT_EQ(l.alignTried, 0u);
+  o.align = true;
+  const features::MatchOracleResult r = features::runMatchOracle(o);
+  const auto medianNorm = [](const std::vector<float>& dx, const std::vector<float>& dy) {
+    std::vector<double> n;
+    for (std::size_t i = 0; i < dx.size(); ++i) n.push_back(std::hypot(dx[i], dy[i]));
+    std::sort(n.begin(), n.end());
+    return n[n.size() / 2];
+  };
+  std::size_t tried = 0, accepted = 0;
+  for (std::size_t level = 0; level < 3; ++level) {
+    const features::LevelOffsets& l = r.offsets[level];
+    SCOPED_TRACE("level " + std::to_string(level));
+    EXPECT_EQ(l.alignTried, l.dx.size());  // every matchable correspondence is tried
+    ASSERT_GT(l.alignedDx.size(), 20u);
+    tried += l.alignTried;
+    accepted += l.alignedDx.size();
+    // The detections are as in the run without --align; the aligned positions sit at least twice as close.
+    EXPECT_EQ(l.dx, plain.offsets[level].dx);
+    EXPECT_LT(medianNorm(l.alignedDx, l.alignedDy), 0.5 * medianNorm(l.dx, l.dy));
+    const nlohmann::json& j = r.report["keypoint_offsets"][level];
+    EXPECT_EQ(j["align_accepted"].get<std::size_t>(), l.alignedDx.size());
+    double ss = 0;
+    for (std::size_t i = 0; i < l.alignedDx.size(); ++i)
+      ss += double(l.alignedDx[i]) * l.alignedDx[i] + double(l.alignedDy[i]) * l.alignedDy[i];
+    EXPECT_NEAR(j["aligned_rms_level_px"].get<double>(), std::sqrt(ss / double(l.alignedDx.size())), 1e-6);
+  }
+  EXPECT_GT(accepted, tried / 2);
+  EXPECT_NE(r.text.find("aligned to the first keypoint's patch"), std::string::npos);
 }
 
 TEST(MatchOracle, WritesTheJsonAndThePlotTogether) {

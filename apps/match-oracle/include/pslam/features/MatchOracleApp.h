@@ -25,6 +25,10 @@ struct MatchOracleOptions {
   double depthTolerance = 0.05;       ///< relative: a point behind the second frame's depth is occluded
   double maxGroundTruthDt = 0.02;     ///< [s] ground-truth association window
   int minMatches = 30;                ///< pairs reported with at least this many (ORB-SLAM: lost below 30 inliers)
+  /// Also align the second keypoint of every matchable correspondence to the first keypoint's patch
+  /// (features::alignPatch, the warp from the true poses and the first keypoint's depth) and report where the
+  /// aligned positions land: what [LocalMapping] refinement can do for a keyframe observation.
+  bool align = false;
   std::filesystem::path outputJson;   ///< optional, written atomically
   /// Optional PNG: the counts of the pairs one frame apart against the first frame's index, and minMatches.
   std::filesystem::path outputPlot;
@@ -58,6 +62,10 @@ struct PairCounts {
 struct LevelOffsets {
   int level = 0;
   std::vector<float> dx, dy;  ///< [level px], one entry per matchable correspondence of this level
+  /// With --align: the aligned second keypoints (accepted alignments only) against the same true transfer, and
+  /// how many alignments were tried.
+  std::vector<float> alignedDx, alignedDy;
+  std::size_t alignTried = 0;
 };
 
 struct MatchOracleResult {
