@@ -85,7 +85,7 @@ std::vector<std::pair<map::MapPointId, double>> inlierRatios(const map::Map& map
 
 nlohmann::json LevelResiduals::toJson() const {
   return {{"level", level}, {"count", count}, {"mean_x_px", meanX}, {"mean_y_px", meanY},
-          {"mean_radial_px", meanRadial}, {"rms_px", rms}};
+          {"mean_radial_px", meanRadial}, {"rms_px", rms}, {"median_px", median}, {"p90_px", p90}};
 }
 
 nlohmann::json MapResiduals::toJson() const {
@@ -98,12 +98,12 @@ std::string MapResiduals::toText() const {
   std::ostringstream os;
   os << "map: " << file.string() << "\n";
   os << "reprojection residuals (keypoint - projection, px) per pyramid level:\n";
-  os << "level  observations   mean x   mean y   mean radial   rms\n";
+  os << "level  observations   mean x   mean y   mean radial   rms    median  p90\n";
   auto row = [&](const LevelResiduals& l) {
     char buf[128];
-    std::snprintf(buf, sizeof(buf), "%-5s  %12zu  %+7.3f  %+7.3f  %+12.3f  %5.3f\n",
+    std::snprintf(buf, sizeof(buf), "%-5s  %12zu  %+7.3f  %+7.3f  %+12.3f  %5.3f  %6.3f  %5.3f\n",
                   l.level < 0 ? "all" : std::to_string(l.level).c_str(), l.count, l.meanX, l.meanY, l.meanRadial,
-                  l.rms);
+                  l.rms, l.median, l.p90);
     os << buf;
   };
   for (const LevelResiduals& l : levels) row(l);
@@ -116,6 +116,7 @@ MapResiduals mapResiduals(const map::Map& map) {
   struct Sums {
     std::size_t n = 0;
     double x = 0, y = 0, radial = 0, squared = 0;
+    std::vector<double> norms;
   };
   std::map<int, Sums> byLevel;
   Sums total;
@@ -139,10 +140,11 @@ MapResiduals mapResiduals(const map::Map& map) {
         s->y += d.y();
         s->radial += radial;
         s->squared += d.squaredNorm();
+        s->norms.push_back(d.norm());
       }
     }
   });
-  auto finish = [](int level, const Sums& s) {
+  auto finish = [](int level, Sums& s) {
     LevelResiduals l;
     l.level = level;
     l.count = s.n;
@@ -152,9 +154,16 @@ MapResiduals mapResiduals(const map::Map& map) {
     l.meanY = s.y / n;
     l.meanRadial = s.radial / n;
     l.rms = std::sqrt(s.squared / n);
+    const auto quantile = [&](double q) {
+      auto k = s.norms.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(s.norms.size() - 1));
+      std::nth_element(s.norms.begin(), k, s.norms.end());
+      return *k;
+    };
+    l.median = quantile(0.5);
+    l.p90 = quantile(0.9);
     return l;
   };
-  for (const auto& [level, s] : byLevel) out.levels.push_back(finish(level, s));
+  for (auto& [level, s] : byLevel) out.levels.push_back(finish(level, s));
   out.all = finish(-1, total);
   return out;
 }

@@ -212,6 +212,9 @@ TEST(SlamMapApp, ResidualsRecoverAnOffsetPerLevelAndAScaleAboutThePrincipalPoint
     EXPECT_NEAR(l.meanX, 0.1 * l.level, 1e-4) << "level " << l.level;
     EXPECT_NEAR(l.meanY, -0.05 * l.level, 1e-4) << "level " << l.level;
     EXPECT_NEAR(l.rms, std::hypot(0.1, 0.05) * l.level, 1e-4) << "level " << l.level;
+    // Every residual of the level has the same norm: median and 90th percentile are it.
+    EXPECT_NEAR(l.median, std::hypot(0.1, 0.05) * l.level, 1e-4) << "level " << l.level;
+    EXPECT_NEAR(l.p90, std::hypot(0.1, 0.05) * l.level, 1e-4) << "level " << l.level;
   }
   EXPECT_EQ(total, r.all.count);
   EXPECT_EQ(r.toJson()["levels"].size(), r.levels.size());

@@ -68,6 +68,7 @@ struct LevelResiduals {
   double meanX = 0, meanY = 0;  ///< mean offset
   double meanRadial = 0;        ///< mean offset along the direction from the principal point to the keypoint
   double rms = 0;               ///< root mean square of the residual norm
+  double median = 0, p90 = 0;   ///< median and 90th percentile of the residual norm (the tail against the RMS)
   nlohmann::json toJson() const;
 };
 
