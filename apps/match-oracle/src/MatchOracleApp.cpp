@@ -38,7 +38,7 @@ struct OracleFrame {
   cv::Mat depth;                      ///< CV_16UC1
   double depthUnits = 0;
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
-  std::shared_ptr<const ImagePyramid> pyramid;  ///< with --align
+  std::shared_ptr<const ScalePyramid> pyramid;  ///< with --align
 };
 
 double depthAt(const cv::Mat& depth, double units, double u, double v) {
@@ -196,7 +196,7 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
     extractor.extract(grey, f.keypoints, f.descriptors);
     if (o.align) {
       const std::vector<float>& s = extractor.scaleFactors();
-      f.pyramid = std::make_shared<const ImagePyramid>(grey, std::vector<double>(s.begin(), s.end()));
+      f.pyramid = std::make_shared<const ScalePyramid>(grey, std::vector<double>(s.begin(), s.end()));
     }
     f.keypointDepth.reserve(f.keypoints.size());
     for (const cv::KeyPoint& kp : f.keypoints)

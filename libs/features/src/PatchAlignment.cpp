@@ -9,8 +9,8 @@
 
 namespace pslam::features {
 
-ImagePyramid::ImagePyramid(const cv::Mat& grey, const std::vector<double>& scaleFactors) {
-  const char* ctx = "ImagePyramid";
+ScalePyramid::ScalePyramid(const cv::Mat& grey, const std::vector<double>& scaleFactors) {
+  const char* ctx = "ScalePyramid";
   require(!grey.empty() && grey.type() == CV_8UC1, ctx, "the image must be a non-empty CV_8UC1");
   require(!scaleFactors.empty(), ctx, "no pyramid levels");
   for (double s : scaleFactors) require(std::isfinite(s) && s >= 1.0, ctx, "a scale factor is not >= 1");
@@ -29,17 +29,17 @@ ImagePyramid::ImagePyramid(const cv::Mat& grey, const std::vector<double>& scale
   }
 }
 
-Eigen::Vector2d ImagePyramid::toLevel(const Eigen::Vector2d& level0, int l) const {
+Eigen::Vector2d ScalePyramid::toLevel(const Eigen::Vector2d& level0, int l) const {
   const Eigen::Vector2d& r = ratios_.at(l);
   return {(level0.x() + 0.5) / r.x() - 0.5, (level0.y() + 0.5) / r.y() - 0.5};
 }
 
-Eigen::Vector2d ImagePyramid::toLevel0(const Eigen::Vector2d& atLevel, int l) const {
+Eigen::Vector2d ScalePyramid::toLevel0(const Eigen::Vector2d& atLevel, int l) const {
   const Eigen::Vector2d& r = ratios_.at(l);
   return {(atLevel.x() + 0.5) * r.x() - 0.5, (atLevel.y() + 0.5) * r.y() - 0.5};
 }
 
-std::size_t ImagePyramid::bytes() const {
+std::size_t ScalePyramid::bytes() const {
   std::size_t n = 0;
   for (const cv::Mat& m : levels_) n += m.total() * m.elemSize();
   return n;

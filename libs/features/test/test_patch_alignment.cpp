@@ -1,5 +1,5 @@
 // alignPatch: recovers a known affine motion's translation to a small fraction of a pixel from starts a pixel off,
-// rejects a wrong patch, a warp outside the accepted scale and patches off the image; ImagePyramid level coordinates
+// rejects a wrong patch, a warp outside the accepted scale and patches off the image; ScalePyramid level coordinates
 // invert each other and follow the resize's pixel-centre convention.
 #include <gtest/gtest.h>
 
@@ -108,7 +108,7 @@ TEST(PatchAlignment, AWrongWarpOrAWrongPatchIsNotAccepted) {
 
 TEST(PatchAlignment, PyramidLevelCoordinatesFollowTheResize) {
   const cv::Mat img = texturedImage(640, 480, 3);
-  const ImagePyramid p(img, {1.0, 1.2, 1.44, 1.728});
+  const ScalePyramid p(img, {1.0, 1.2, 1.44, 1.728});
   ASSERT_EQ(p.numLevels(), 4);
   EXPECT_EQ(p.level(0).data, img.data);  // level 0 is the image itself
   EXPECT_EQ(p.level(1).cols, 533);
@@ -136,9 +136,9 @@ TEST(PatchAlignment, PyramidLevelCoordinatesFollowTheResize) {
 }
 
 TEST(PatchAlignment, BadInputIsRefused) {
-  EXPECT_THROW(ImagePyramid(cv::Mat(), {1.0}), pslam::Error);
-  EXPECT_THROW(ImagePyramid(cv::Mat(10, 10, CV_8UC3), {1.0}), pslam::Error);
-  EXPECT_THROW(ImagePyramid(cv::Mat(10, 10, CV_8UC1), {0.5}), pslam::Error);
+  EXPECT_THROW(ScalePyramid(cv::Mat(), {1.0}), pslam::Error);
+  EXPECT_THROW(ScalePyramid(cv::Mat(10, 10, CV_8UC3), {1.0}), pslam::Error);
+  EXPECT_THROW(ScalePyramid(cv::Mat(10, 10, CV_8UC1), {0.5}), pslam::Error);
   const cv::Mat img = texturedImage(100, 100, 1);
   EXPECT_THROW(alignPatch(cv::Mat(100, 100, CV_32F), {50, 50}, Eigen::Matrix2d::Identity(), img, {50, 50}, {}),
                pslam::Error);

@@ -27,7 +27,7 @@ void ObservationRefiner::addKeyFrame(map::KeyFrameId id, const cv::Mat& grey, co
               std::to_string(camera_.width) + "x" + std::to_string(camera_.height));
   cv::Mat image = grey;
   if (!undistortMapX_.empty()) cv::remap(grey, image, undistortMapX_, undistortMapY_, cv::INTER_LINEAR);
-  auto pyramid = std::make_shared<const features::ImagePyramid>(image, scaleFactors);
+  auto pyramid = std::make_shared<const features::ScalePyramid>(image, scaleFactors);
   std::lock_guard<std::mutex> lk(mutex_);
   images_[id] = std::move(pyramid);
   while (static_cast<int>(images_.size()) > params_.cachedKeyFrames) images_.erase(images_.begin());
@@ -76,7 +76,7 @@ RefinementCounts ObservationRefiner::refine(map::Map& map, map::KeyFrameId kfId)
     const Eigen::Vector3d p_anchor = anchor.T_cam_world * p_world;
     if (!(p_anchor.z() > 0)) continue;
     const cv::KeyPoint& ka = anchor.keypoints.at(point.anchorKeypoint);
-    const features::ImagePyramid& pa = *anchorImage->second;
+    const features::ScalePyramid& pa = *anchorImage->second;
     if (ka.octave < 0 || ka.octave >= pa.numLevels()) continue;
     const Eigen::Vector2d centreA = pa.toLevel(Eigen::Vector2d(ka.pt.x, ka.pt.y), ka.octave);
     // A level-0 pixel of the anchor, back-projected to the point's depth: where the other keyframe sees it.
@@ -100,7 +100,7 @@ RefinementCounts ObservationRefiner::refine(map::Map& map, map::KeyFrameId kfId)
       if (done != aligned.end() && done->second == anchorObs) continue;
       map::KeyFrame& kf = map.mutableKeyFrame(obsKf);
       cv::KeyPoint& kp = kf.keypoints.at(obsKp);
-      const features::ImagePyramid& pj = *image->second;
+      const features::ScalePyramid& pj = *image->second;
       if (kp.octave < 0 || kp.octave >= pj.numLevels()) continue;
       const auto toLevel = [&](const Eigen::Vector3d& w, Eigen::Vector2d* out) {
         const Eigen::Vector3d c = kf.T_cam_world * w;

@@ -40,13 +40,14 @@ struct PatchAlignmentParams {
   }
 };
 
-/// An image and its pyramid levels (level 0 = the image), with the exact level / level-0 coordinate maps.
-class ImagePyramid {
+/// An image and its pyramid levels at the ORB scale factors (level 0 = the image), with the exact level / level-0
+/// coordinate maps. (optimize::ImagePyramid is the photometric error's float pyramid of halvings.)
+class ScalePyramid {
  public:
-  ImagePyramid() = default;
+  ScalePyramid() = default;
   /// `grey` CV_8UC1; level l is resized by 1 / scaleFactors[l] (scaleFactors[0] = 1). Throws pslam::Error on an
   /// empty or non-CV_8UC1 image or a scale factor < 1.
-  ImagePyramid(const cv::Mat& grey, const std::vector<double>& scaleFactors);
+  ScalePyramid(const cv::Mat& grey, const std::vector<double>& scaleFactors);
 
   int numLevels() const { return static_cast<int>(levels_.size()); }
   const cv::Mat& level(int l) const { return levels_.at(l); }

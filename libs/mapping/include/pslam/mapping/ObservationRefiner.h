@@ -71,7 +71,7 @@ class ObservationRefiner {
   std::size_t keptBytes() const;
 
  private:
-  using Pyramid = std::shared_ptr<const features::ImagePyramid>;
+  using Pyramid = std::shared_ptr<const features::ScalePyramid>;
   ObservationRefinementParams params_;
   geometry::PinholeCamera camera_;
   cv::Mat undistortMapX_, undistortMapY_;  ///< empty without distortion
