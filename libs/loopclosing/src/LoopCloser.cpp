@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <set>
 
 #include "pslam/core/ByteCodec.h"
 #include "pslam/core/Error.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/features/Matching.h"
+#include "pslam/geometry/PinholeCamera.h"
 #include "pslam/geometry/Sim3Solver.h"
 #include "pslam/optimize/MapAdapter.h"
 #include "pslam/optimize/PoseGraph.h"
@@ -30,13 +32,17 @@ nlohmann::json LoopReport::toJson() const {
                  {"loop_matches", x.loopMatches}});
   nlohmann::json j = {{"keyframe", keyFrame}, {"candidates", candidates}, {"consistent_candidates", consistentCandidates},
                       {"verified", v}, {"closed", closed}, {"ms", ms}};
-  if (closed) {
+  if (closed || withdrawn) {
     j["matched_keyframe"] = matchedKeyFrame;
     j["scale"] = scale;
     j["correction_m"] = correctionMetres;
     j["corrected_keyframes"] = correctedKeyFrames;
     j["fused_points"] = fusedPoints;
     j["essential_graph_edges"] = essentialGraphEdges;
+    j["correction_outlier_ratio"] = correctionOutlierRatio;
+  }
+  if (withdrawn) j["withdrawn"] = true;
+  if (closed) {
     j["global_ba_ms"] = globalBaMs;
     j["global_ba_asynchronous"] = globalBaAsynchronous;
     if (!globalBa.is_null()) j["global_ba"] = globalBa;
@@ -244,8 +250,56 @@ bool LoopCloser::verify(KeyFrameId kfId, KeyFrameId candId, Sim3& S_cw, std::map
   return v.loopMatches >= params_.minLoopMatches;
 }
 
-void LoopCloser::correct(KeyFrameId kfId, KeyFrameId matched, const Sim3& S_cw_corrected,
-                         const std::map<std::size_t, MapPointId>& loopMatches, LoopReport& report) {
+double outlierRatio(const map::Map& map, KeyFrameId firstKeyFrame, double chi2) {
+  std::set<MapPointId> points;
+  for (auto it = map.keyFrames().lower_bound(firstKeyFrame); it != map.keyFrames().end(); ++it)
+    for (MapPointId id : it->second.mapPointIds)
+      if (id != map::kNoMapPoint && map.hasMapPoint(id) && !map.mapPoint(id).bad) points.insert(id);
+  std::map<KeyFrameId, geometry::PinholeCamera> cameras;
+  const auto cameraOf = [&](const KeyFrame& kf) -> const geometry::PinholeCamera& {
+    const map::CameraIntrinsics& c = kf.camera;
+    return cameras.try_emplace(kf.id, c.fx, c.fy, c.cx, c.cy, c.width, c.height).first->second;
+  };
+  constexpr double kHuberDelta = 2.448;  // Table 3.2 delta_R
+  std::size_t total = 0, outliers = 0;
+  for (MapPointId id : points) {
+    const map::MapPoint& point = map.mapPoint(id);
+    // The point refit to all its observations, poses fixed: Gauss-Newton with Huber weights from where it is.
+    Eigen::Vector3d X = map.worldPosition(id);
+    for (int iteration = 0; iteration < 5; ++iteration) {
+      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      for (const auto& [kfId, k] : point.observations) {
+        const KeyFrame& kf = map.keyFrame(kfId);
+        const Eigen::Vector3d p = kf.T_cam_world * X;
+        if (!(p.z() > 0)) continue;
+        Eigen::Matrix<double, 2, 3> J_p;
+        const Eigen::Vector2d r = cameraOf(kf).project(p, J_p) - kf.pixel(k);
+        const double w = kf.invSigma2(k), e = std::sqrt(r.squaredNorm() * w);
+        const double huber = e <= kHuberDelta ? 1.0 : kHuberDelta / e;
+        const Eigen::Matrix<double, 2, 3> J = J_p * kf.T_cam_world.linear();
+        H += huber * w * J.transpose() * J;
+        g += huber * w * J.transpose() * r;
+      }
+      const Eigen::Vector3d step = H.ldlt().solve(-g);
+      if (!step.allFinite()) break;
+      X += step;
+    }
+    for (const auto& [kfId, k] : point.observations) {
+      if (kfId < firstKeyFrame) continue;
+      const KeyFrame& kf = map.keyFrame(kfId);
+      const Eigen::Vector3d p = kf.T_cam_world * X;
+      ++total;
+      if (!(p.z() > 0) || (kf.pixel(k) - kf.camera.project(p)).squaredNorm() * kf.invSigma2(k) > chi2) ++outliers;
+    }
+  }
+  return total > 0 ? double(outliers) / double(total) : 0.0;
+}
+
+std::map<KeyFrameId, Eigen::Isometry3d> LoopCloser::correct(KeyFrameId kfId, KeyFrameId matched,
+                                                           const Sim3& S_cw_corrected,
+                                                           const std::map<std::size_t, MapPointId>& loopMatches,
+                                                           LoopReport& report) {
   std::map<KeyFrameId, Eigen::Isometry3d> posesBefore;
   for (const auto& [id, kf] : map_.keyFrames()) posesBefore[id] = kf.T_cam_world;
   // 1. The keyframe's neighbourhood moves with it: S_iw corrected = S_ic S_cw (ORB-SLAM's CorrectLoop).
@@ -367,10 +421,7 @@ void LoopCloser::correct(KeyFrameId kfId, KeyFrameId matched, const Sim3& S_cw_c
     map_.setWorldPosition(p, X);
     map_.updateNormalAndDepth(p);
   }
-  loopEdges_.emplace_back(kfId, matched);
-
-  // 5. Global BA refines everything.
-  globalBundleAdjustment(posesBefore, report);
+  return posesBefore;
 }
 
 void LoopCloser::globalBundleAdjustment(const std::map<KeyFrameId, Eigen::Isometry3d>& posesBeforeCorrection,
@@ -526,13 +577,31 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
     const bool ok = verify(kfId, cand, S_cw, loopMatches, v);
     report.verified.push_back(v);
     if (!ok) continue;
+    report.matchedKeyFrame = cand;
+    report.scale = S_cw.s;
+    // A false loop passes the Sim(3) and projection tests when its places look alike (repeated textures), but
+    // once corrected the map bends against its own measurements: a true loop leaves about 1 % of the loop's
+    // observations failing the chi-square test, a false one half of them (doc/places.md). The map before the
+    // correction is kept to be put back then; nobody else has seen the correction yet.
+    std::optional<map::Map> before;
+    if (params_.maxCorrectionOutlierRatio < 1.0) before.emplace(map_);
+    const std::map<KeyFrameId, Eigen::Isometry3d> posesBefore = correct(kfId, cand, S_cw, loopMatches, report);
+    report.correctionOutlierRatio = outlierRatio(map_, cand, params_.correctionChi2);
+    if (before && report.correctionOutlierRatio > params_.maxCorrectionOutlierRatio) {
+      map_ = std::move(*before);
+      report.withdrawn = true;
+      report.keyFrameScales.clear();
+      groups_.clear();  // the same candidate must be consistent over `consistency` keyframes again
+      ++loopsWithdrawn_;
+      break;
+    }
     // Threaded: the previous loop's global BA still runs on a copy of the map that lacks this correction; it is
     // stopped and dropped, and this loop's global BA replaces it (ORB-SLAM's RunGlobalBundleAdjustment abort).
     report.abortedGlobalBa = abortGlobalBundleAdjustment();
     report.closed = true;
-    report.matchedKeyFrame = cand;
-    report.scale = S_cw.s;
-    correct(kfId, cand, S_cw, loopMatches, report);
+    loopEdges_.emplace_back(kfId, cand);
+    // 5. Global BA refines everything.
+    globalBundleAdjustment(posesBefore, report);
     lastLoopKeyFrame_ = kfId;
     groups_.clear();
     ++loopsClosed_;

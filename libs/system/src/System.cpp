@@ -53,6 +53,7 @@ void relativeToReference(const ImplT& s, const tracking::Tracker::Result& res, m
 struct Counters {
   std::size_t frames = 0, tracked = 0, lost = 0, relocalizations = 0, relocalizationsWithdrawn = 0, resets = 0;
   std::size_t loopsClosed = 0;
+  std::size_t loopsWithdrawn = 0;  ///< verified loops whose correction failed the outlier test (map restored)
   std::size_t manhattanFrames = 0, manhattanTracked = 0, fallbackTracked = 0;
   long long initializedAtFrame = -1;
 };
@@ -294,6 +295,7 @@ struct System::Impl {
           loops.push_back(std::move(j));
         }
         if (lr.closed) ++counters.loopsClosed;
+        if (lr.withdrawn) ++counters.loopsWithdrawn;
         if (lr.globalBaAsynchronous) {
           std::lock_guard<std::mutex> lk(queueMutex);
           if (globalBa == GlobalBaState::None) globalBa = GlobalBaState::Running;  // Ready when it was that quick
@@ -931,6 +933,7 @@ nlohmann::json System::summary() const {
           {"map_points", mapPoints},
           {"resets", c.resets},
           {"loops_closed", c.loopsClosed},
+          {"loops_withdrawn", c.loopsWithdrawn},
           {"direct_points", direct["direct_points"]},
           {"direct_active", direct["direct_active"]},
           {"manhattan_frames", c.manhattanFrames},

@@ -40,6 +40,11 @@ struct LoopClosingParams {
   int essentialGraphMinWeight = 100;  ///< covisibility edges of the essential graph (ORB-SLAM: 100)
   int essentialGraphIterations = 20;  ///< LM iterations of the Sim(3) pose graph (ORB-SLAM: 20)
   int globalBAIterations = 10;        ///< global BA after the correction (ORB-SLAM: 10); 0 = none
+  /// A loop is withdrawn (the map restored as it was) when, after its correction and essential graph, more than
+  /// this share of the observations in the loop's keyframes fail the chi-square test: a false loop bends the map
+  /// against its own measurements (doc/places.md). 1 = never (ORB-SLAM).
+  double maxCorrectionOutlierRatio = 0.15;
+  double correctionChi2 = 5.991;      ///< the test of an observation (2 DoF, 95 %; Table 3.2 chi_R)
 
   template <class V>
   void visitFields(V& v) {
@@ -54,9 +59,20 @@ struct LoopClosingParams {
     PSLAM_FIELD(v, essentialGraphMinWeight, atLeast(1), "covisibility weight of essential-graph edges");
     PSLAM_FIELD(v, essentialGraphIterations, atLeast(1), "iterations of the Sim(3) pose-graph optimization");
     PSLAM_FIELD(v, globalBAIterations, atLeast(0), "global BA iterations after a correction (0 = none)");
+    PSLAM_FIELD(v, maxCorrectionOutlierRatio, inLeftOpen(0, 1),
+                "withdraw a loop whose correction leaves more outlier observations than this share (1 = never)");
+    PSLAM_FIELD(v, correctionChi2, greaterThan(0), "chi-square test of an observation after a correction");
   }
   PSLAM_PARAMS("LoopClosing")
 };
+
+/// The share of the observations (of good points) in keyframes with id >= `firstKeyFrame` that fail the chi-square
+/// test `chi2` at their level's sigma (or see their point behind the camera) once each point is refit to all its
+/// observations with the keyframe poses held (5 Gauss-Newton steps with Huber weights, delta 2.448, from where it
+/// is; the map is not changed); 0 without observations. After a loop correction, with `firstKeyFrame` the matched
+/// keyframe: how far the corrected loop's poses disagree with its own measurements. The refit leaves out what the
+/// correction did to the points alone (each followed one keyframe), which the global BA would mend anyway.
+double outlierRatio(const map::Map& map, map::KeyFrameId firstKeyFrame, double chi2);
 
 /// What loop closing did with one keyframe (report.json "loops").
 struct LoopReport {
@@ -70,6 +86,10 @@ struct LoopReport {
   };
   std::vector<Verification> verified;
   bool closed = false;
+  /// A verified loop whose correction failed the outlier test (maxCorrectionOutlierRatio): the map was restored.
+  bool withdrawn = false;
+  /// After the correction and essential graph: the share of the loop keyframes' observations failing the test.
+  double correctionOutlierRatio = -1.0;
   map::KeyFrameId matchedKeyFrame = map::kNoKeyFrame;
   double scale = 1.0;               ///< scale of the correction S_cw (the drift in scale)
   double correctionMetres = 0.0;    ///< how far the keyframe's centre moved
@@ -119,8 +139,8 @@ class LoopCloser {
   /// Stops the pending global BA after its current iteration and drops its result: the map keeps the loop
   /// correction the BA started from. Returns whether one was pending. It does not wait (it is called with the map
   /// lock held): the stopped job's thread ends on its own and is joined later (reset(), the destructor, or the next
-  /// start / write-back once it has ended). A loop closed while a global BA runs calls it before its own correction
-  /// (ORB-SLAM's mbStopGBA, which detaches the thread).
+  /// start / write-back once it has ended). A loop closed while a global BA runs calls it once its own correction
+  /// passed the outlier test (ORB-SLAM's mbStopGBA, which detaches the thread).
   bool abortGlobalBundleAdjustment();
   /// Writes a finished global BA back (map lock held, between two keyframes' local mapping; waits for the BA if it
   /// still runs): the keyframes and points of the copy take its result, unless the map culled them or moved a
@@ -141,6 +161,7 @@ class LoopCloser {
   void reset();
   ~LoopCloser();
   int loopsClosed() const { return loopsClosed_; }
+  int loopsWithdrawn() const { return loopsWithdrawn_; }
   /// The loop edges of the loops closed so far (kept in the essential graph of later loops), saved with the map as
   /// its extension "loop_edges": u64 count, then per edge two u64 keyframe ids.
   const std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>>& loopEdges() const { return loopEdges_; }
@@ -165,8 +186,12 @@ class LoopCloser {
   /// Loop matches of keyframe `kf` (keypoint -> loop point) for `candidate`, with S_cw, if verified.
   bool verify(map::KeyFrameId kf, map::KeyFrameId candidate, geometry::Sim3& S_cw,
               std::map<std::size_t, map::MapPointId>& loopMatches, LoopReport::Verification& v);
-  void correct(map::KeyFrameId kf, map::KeyFrameId matched, const geometry::Sim3& S_cw,
-               const std::map<std::size_t, map::MapPointId>& loopMatches, LoopReport& report);
+  /// Steps 1-4 of the correction (neighbourhood, loop fusion, loop connections, essential graph); returns every
+  /// keyframe's pose before it.
+  std::map<map::KeyFrameId, Eigen::Isometry3d> correct(map::KeyFrameId kf, map::KeyFrameId matched,
+                                                       const geometry::Sim3& S_cw,
+                                                       const std::map<std::size_t, map::MapPointId>& loopMatches,
+                                                       LoopReport& report);
   /// Projection of `points` into keyframe `kf` at S_cw: per keypoint not in `taken`, the best point within the
   /// window (descriptor <= TH_LOW). Returns keypoint -> point.
   std::map<std::size_t, map::MapPointId> searchByProjection(map::KeyFrameId kf, const geometry::Sim3& S_cw,
@@ -191,7 +216,7 @@ class LoopCloser {
   map::KeyFrameId lastLoopKeyFrame_ = map::kNoKeyFrame;
   /// Loop edges of the loops closed so far (kept in the essential graph of later loops).
   std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>> loopEdges_;
-  int loopsClosed_ = 0;
+  int loopsClosed_ = 0, loopsWithdrawn_ = 0;
   KeyFramesMoved keyFramesMoved_;
   bool asynchronousGlobalBa_ = false;
   std::function<void()> globalBaReady_;
