@@ -263,7 +263,20 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
   text += "(medians over the pairs; pairs>=: pairs with at least " + std::to_string(o.minMatches) +
           " matchable correspondences)\n";
 
-  // Where the matchable correspondences land, per pyramid level (LevelOffsets).
+  // Where the matchable correspondences land, per pyramid level (LevelOffsets); with --align also the aligned ones.
+  struct OffsetSummary {
+    double meanX = 0, meanY = 0, rms = 0, median = 0, p90 = 0;
+  };
+  const auto summarize = [](const std::vector<float>& dx, const std::vector<float>& dy) {
+    std::vector<double> norms;
+    norms.reserve(dx.size());
+    for (std::size_t i = 0; i < dx.size(); ++i) norms.push_back(std::hypot(double(dx[i]), double(dy[i])));
+    const double n = static_cast<double>(dx.size());
+    // The RMS of the offset vectors is that of their norms.
+    const eval::ErrorStatistics stats = eval::computeStatistics(norms, "keypoint offsets");
+    return OffsetSummary{std::accumulate(dx.begin(), dx.end(), 0.0) / n, std::accumulate(dy.begin(), dy.end(), 0.0) / n,
+                         stats.rmse, stats.median, percentile(norms, 90.0)};
+  };
   nlohmann::json perLevel = nlohmann::json::array();
   text += "matchable correspondences: second keypoint - first moved by the true poses, in level pixels\n";
   std::snprintf(line, sizeof line, "%5s %8s %8s %8s %8s %10s %9s\n", "level", "n", "mean_x", "mean_y", "rms",
@@ -271,24 +284,16 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
   text += line;
   for (const LevelOffsets& l : result.offsets) {
     if (l.dx.empty()) continue;
-    std::vector<double> norms;
-    norms.reserve(l.dx.size());
-    for (std::size_t i = 0; i < l.dx.size(); ++i) norms.push_back(std::hypot(double(l.dx[i]), double(l.dy[i])));
-    const double n = static_cast<double>(l.dx.size());
-    const double meanX = std::accumulate(l.dx.begin(), l.dx.end(), 0.0) / n;
-    const double meanY = std::accumulate(l.dy.begin(), l.dy.end(), 0.0) / n;
-    // The RMS of the offset vectors is that of their norms.
-    const eval::ErrorStatistics stats = eval::computeStatistics(norms, "keypoint offsets");
-    const double p90 = percentile(norms, 90.0);
+    const OffsetSummary d = summarize(l.dx, l.dy);
     perLevel.push_back({{"level", l.level},
                         {"correspondences", l.dx.size()},
-                        {"mean_x_level_px", meanX},
-                        {"mean_y_level_px", meanY},
-                        {"rms_level_px", stats.rmse},
-                        {"median_norm_level_px", stats.median},
-                        {"p90_norm_level_px", p90}});
-    std::snprintf(line, sizeof line, "%5d %8zu %+8.3f %+8.3f %8.3f %10.3f %9.3f\n", l.level, l.dx.size(), meanX,
-                  meanY, stats.rmse, stats.median, p90);
+                        {"mean_x_level_px", d.meanX},
+                        {"mean_y_level_px", d.meanY},
+                        {"rms_level_px", d.rms},
+                        {"median_norm_level_px", d.median},
+                        {"p90_norm_level_px", d.p90}});
+    std::snprintf(line, sizeof line, "%5d %8zu %+8.3f %+8.3f %8.3f %10.3f %9.3f\n", l.level, l.dx.size(), d.meanX,
+                  d.meanY, d.rms, d.median, d.p90);
     text += line;
   }
   if (o.align) {
@@ -304,21 +309,14 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
       entry["align_tried"] = l.alignTried;
       entry["align_accepted"] = l.alignedDx.size();
       if (l.alignedDx.empty()) continue;
-      std::vector<double> norms;
-      for (std::size_t i = 0; i < l.alignedDx.size(); ++i)
-        norms.push_back(std::hypot(double(l.alignedDx[i]), double(l.alignedDy[i])));
-      const double n = static_cast<double>(norms.size());
-      const double meanX = std::accumulate(l.alignedDx.begin(), l.alignedDx.end(), 0.0) / n;
-      const double meanY = std::accumulate(l.alignedDy.begin(), l.alignedDy.end(), 0.0) / n;
-      const eval::ErrorStatistics stats = eval::computeStatistics(norms, "aligned keypoint offsets");
-      const double p90 = percentile(norms, 90.0);
-      entry["aligned_mean_x_level_px"] = meanX;
-      entry["aligned_mean_y_level_px"] = meanY;
-      entry["aligned_rms_level_px"] = stats.rmse;
-      entry["aligned_median_norm_level_px"] = stats.median;
-      entry["aligned_p90_norm_level_px"] = p90;
+      const OffsetSummary a = summarize(l.alignedDx, l.alignedDy);
+      entry["aligned_mean_x_level_px"] = a.meanX;
+      entry["aligned_mean_y_level_px"] = a.meanY;
+      entry["aligned_rms_level_px"] = a.rms;
+      entry["aligned_median_norm_level_px"] = a.median;
+      entry["aligned_p90_norm_level_px"] = a.p90;
       std::snprintf(line, sizeof line, "%5d %8zu %9zu %+8.3f %+8.3f %8.3f %10.3f %9.3f\n", l.level, l.alignTried,
-                    l.alignedDx.size(), meanX, meanY, stats.rmse, stats.median, p90);
+                    l.alignedDx.size(), a.meanX, a.meanY, a.rms, a.median, a.p90);
       text += line;
     }
   }
