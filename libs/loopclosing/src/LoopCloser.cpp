@@ -266,7 +266,8 @@ double outlierRatio(const map::Map& map, KeyFrameId firstKeyFrame, double chi2) 
     const map::MapPoint& point = map.mapPoint(id);
     // The point refit to all its observations, poses fixed: Gauss-Newton with Huber weights from where it is.
     Eigen::Vector3d X = map.worldPosition(id);
-    for (int iteration = 0; iteration < 5; ++iteration) {
+    // (A point seen once has no depth to refit: it stays.)
+    for (int iteration = 0; iteration < 5 && point.observations.size() >= 2; ++iteration) {
       Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
       Eigen::Vector3d g = Eigen::Vector3d::Zero();
       for (const auto& [kfId, k] : point.observations) {
@@ -580,9 +581,9 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
     report.matchedKeyFrame = cand;
     report.scale = S_cw.s;
     // A false loop passes the Sim(3) and projection tests when its places look alike (repeated textures), but
-    // once corrected the map bends against its own measurements: a true loop leaves about 1 % of the loop's
-    // observations failing the chi-square test, a false one half of them (doc/places.md). The map before the
-    // correction is kept to be put back then; nobody else has seen the correction yet.
+    // once corrected the map bends against its own measurements: with their points refit, a true loop's keyframes
+    // leave a few % of their observations failing the chi-square test, a false loop's a third or more
+    // (doc/places.md). The map before the correction is kept to be put back then; nobody else has seen it yet.
     std::optional<map::Map> before;
     if (params_.maxCorrectionOutlierRatio < 1.0) before.emplace(map_);
     const std::map<KeyFrameId, Eigen::Isometry3d> posesBefore = correct(kfId, cand, S_cw, loopMatches, report);

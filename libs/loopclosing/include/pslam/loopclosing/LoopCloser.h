@@ -41,8 +41,8 @@ struct LoopClosingParams {
   int essentialGraphIterations = 20;  ///< LM iterations of the Sim(3) pose graph (ORB-SLAM: 20)
   int globalBAIterations = 10;        ///< global BA after the correction (ORB-SLAM: 10); 0 = none
   /// A loop is withdrawn (the map restored as it was) when, after its correction and essential graph, more than
-  /// this share of the observations in the loop's keyframes fail the chi-square test: a false loop bends the map
-  /// against its own measurements (doc/places.md). 1 = never (ORB-SLAM).
+  /// this share of the observations in the loop's keyframes fail the chi-square test with their points refit
+  /// (outlierRatio): a false loop bends the map against its own measurements (doc/places.md). 1 = never (ORB-SLAM).
   double maxCorrectionOutlierRatio = 0.15;
   double correctionChi2 = 5.991;      ///< the test of an observation (2 DoF, 95 %; Table 3.2 chi_R)
 

@@ -60,7 +60,8 @@ class ObservationRefiner {
   void addKeyFrame(map::KeyFrameId id, const cv::Mat& grey, const std::vector<double>& scaleFactors);
 
   /// Refines the observations of the points keyframe `kf` sees (see the file comment). Changes only keypoint
-  /// positions (KeyFrame::keypoints[i].pt) of kept keyframes.
+  /// positions (KeyFrame::keypoints[i].pt) of kept keyframes. refine() and reset() run under the caller's map lock
+  /// (local mapping; the tracker's map reset), never at the same time.
   RefinementCounts refine(map::Map& map, map::KeyFrameId kf);
 
   /// Forgets every image and alignment (after the map was reset).
