@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <deque>
 #include <numeric>
+#include <optional>
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
@@ -97,19 +98,18 @@ PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img
       const cv::KeyPoint& kb = b.keypoints[static_cast<std::size_t>(inside.index)];
       const int la = a.keypoints[i].octave, lb = kb.octave;
       const Eigen::Vector2d ca = a.pyramid->toLevel(Eigen::Vector2d(p.x, p.y), la);
-      const auto transfer = [&](const Eigen::Vector2d& levelPixel) {
+      const auto transfer = [&](const Eigen::Vector2d& levelPixel) -> std::optional<Eigen::Vector2d> {
         const Eigen::Vector2d x = a.pyramid->toLevel0(levelPixel, la);
         const Eigen::Vector3d Pb = T_b_a * Eigen::Vector3d((x.x() - cx) / fx * d, (x.y() - cy) / fy * d, d);
+        if (!(Pb.z() > 0)) return std::nullopt;
         return b.pyramid->toLevel(Eigen::Vector2d(fx * Pb.x() / Pb.z() + cx, fy * Pb.y() / Pb.z() + cy), lb);
       };
-      const double h = alignment.halfPatch;
-      const Eigen::Vector2d c0 = transfer(ca);
-      Eigen::Matrix2d A;
-      A.col(0) = (transfer(ca + Eigen::Vector2d(h, 0)) - c0) / h;
-      A.col(1) = (transfer(ca + Eigen::Vector2d(0, h)) - c0) / h;
+      const std::optional<PatchWarp> warp = patchWarpOf(transfer, ca, alignment.halfPatch);
       const Eigen::Vector2d start = b.pyramid->toLevel(Eigen::Vector2d(kb.pt.x, kb.pt.y), lb);
       ++offsets[level].alignTried;
-      const PatchAlignmentResult r = alignPatch(a.pyramid->level(la), ca, A, b.pyramid->level(lb), start, alignment);
+      const PatchAlignmentResult r =
+          warp ? alignPatch(a.pyramid->level(la), ca, warp->A, b.pyramid->level(lb), start, alignment)
+               : PatchAlignmentResult{};
       if (r.accepted) {
         const Eigen::Vector2d e = b.pyramid->toLevel0(r.position, lb) - Eigen::Vector2d(u, v);
         offsets[level].alignedDx.push_back(static_cast<float>(e.x() / scales[level]));

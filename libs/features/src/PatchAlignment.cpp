@@ -63,6 +63,19 @@ inline bool inside(const cv::Mat& img, double x, double y, double reach) {
 
 }  // namespace
 
+std::optional<PatchWarp> patchWarpOf(const PixelTransfer& transfer, const Eigen::Vector2d& centre, double step) {
+  require(step > 0, "patchWarpOf", "the difference step must be > 0");
+  const std::optional<Eigen::Vector2d> c = transfer(centre);
+  const std::optional<Eigen::Vector2d> x = transfer(centre + Eigen::Vector2d(step, 0));
+  const std::optional<Eigen::Vector2d> y = transfer(centre + Eigen::Vector2d(0, step));
+  if (!c || !x || !y) return std::nullopt;
+  PatchWarp w;
+  w.centre = *c;
+  w.A.col(0) = (*x - *c) / step;
+  w.A.col(1) = (*y - *c) / step;
+  return w;
+}
+
 PatchAlignmentResult alignPatch(const cv::Mat& reference, const Eigen::Vector2d& referenceCentre,
                                 const Eigen::Matrix2d& A, const cv::Mat& image, const Eigen::Vector2d& start,
                                 const PatchAlignmentParams& params) {

@@ -1,11 +1,13 @@
 // alignPatch: recovers a known affine motion's translation to a small fraction of a pixel from starts a pixel off,
 // rejects a wrong patch, a warp outside the accepted scale and patches off the image; ScalePyramid level coordinates
-// invert each other and follow the resize's pixel-centre convention.
+// invert each other and follow the resize's pixel-centre convention; patchWarpOf gives an affine transfer exactly
+// and no warp where a pixel does not project.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
@@ -145,4 +147,33 @@ TEST(PatchAlignment, BadInputIsRefused) {
   // A NaN start is a patch off the image, not a crash.
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(alignPatch(img, {50, 50}, Eigen::Matrix2d::Identity(), img, {nan, 50}, {}).accepted);
+}
+
+TEST(PatchAlignment, PatchWarpOfAnAffineTransferIsThatAffineMap) {
+  const WarpedPair w = warpedPair(12.0, 1.3);
+  const PixelTransfer transfer = [&](const Eigen::Vector2d& x) -> std::optional<Eigen::Vector2d> { return w.map(x); };
+  const Eigen::Vector2d centre(123.4, 87.6);
+  const std::optional<PatchWarp> warp = patchWarpOf(transfer, centre, 4.0);
+  ASSERT_TRUE(warp.has_value());
+  EXPECT_LT((warp->centre - w.map(centre)).norm(), 1e-12);
+  EXPECT_LT((warp->A - w.A).norm(), 1e-12);
+  // A transfer of a plane seen in perspective (a homography): the forward difference over the step is the secant
+  // of the map, which the patch of that half side sees, not its derivative at the centre.
+  const auto homography = [](const Eigen::Vector2d& x) -> std::optional<Eigen::Vector2d> {
+    const double s = 1.0 + 0.002 * x.x();
+    if (!(s > 0)) return std::nullopt;
+    return Eigen::Vector2d(x.x() / s, x.y() / s);
+  };
+  const std::optional<PatchWarp> secant = patchWarpOf(homography, centre, 4.0);
+  ASSERT_TRUE(secant.has_value());
+  EXPECT_NEAR(secant->A(0, 0), ((*homography(centre + Eigen::Vector2d(4, 0))).x() - secant->centre.x()) / 4, 1e-12);
+  EXPECT_NEAR(secant->A(1, 1), 1.0 / (1.0 + 0.002 * centre.x()), 1e-12);
+  // A pixel that does not project (the plane behind the camera) gives no warp; a step <= 0 is refused.
+  EXPECT_FALSE(patchWarpOf(homography, Eigen::Vector2d(-500, 0), 4.0).has_value());
+  const auto projectsAboveRow90 = [&](const Eigen::Vector2d& x) -> std::optional<Eigen::Vector2d> {
+    if (x.y() > 90) return std::nullopt;
+    return w.map(x);
+  };
+  EXPECT_FALSE(patchWarpOf(projectsAboveRow90, centre, 4.0).has_value());  // only the y step fails
+  EXPECT_THROW(patchWarpOf(transfer, centre, 0.0), pslam::Error);
 }

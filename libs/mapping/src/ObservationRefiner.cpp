@@ -1,6 +1,8 @@
 #include "pslam/mapping/ObservationRefiner.h"
 
+#include <algorithm>
 #include <iterator>
+#include <optional>
 #include <string>
 
 #include <opencv2/calib3d.hpp>
@@ -78,6 +80,17 @@ RefinementCounts ObservationRefiner::refine(map::Map& map, map::KeyFrameId kfId)
     const cv::KeyPoint& ka = anchor.keypoints.at(point.anchorKeypoint);
     const features::ScalePyramid& pa = *anchorImage->second;
     if (ka.octave < 0 || ka.octave >= pa.numLevels()) continue;
+    // Only points with an observation not yet aligned to this anchor observation cost a back-projection.
+    const auto pending = [&](map::KeyFrameId obsKf, std::size_t obsKp) {
+      if (obsKf == point.anchorKeyFrame || !images.count(obsKf)) return false;
+      const auto kfAligned = alignedTo_.find(obsKf);
+      if (kfAligned == alignedTo_.end()) return true;
+      const auto done = kfAligned->second.find(obsKp);
+      return done == kfAligned->second.end() || done->second != anchorObs;
+    };
+    if (std::none_of(point.observations.begin(), point.observations.end(),
+                     [&](const auto& obs) { return pending(obs.first, obs.second); }))
+      continue;
     const Eigen::Vector2d centreA = pa.toLevel(Eigen::Vector2d(ka.pt.x, ka.pt.y), ka.octave);
     // A level-0 pixel of the anchor, back-projected to the point's depth: where the other keyframe sees it.
     const Eigen::Isometry3d T_world_anchor = anchor.T_world_cam();
@@ -87,37 +100,25 @@ RefinementCounts ObservationRefiner::refine(map::Map& map, map::KeyFrameId kfId)
                                 (u.y() - anchor.camera.cy) / anchor.camera.fy, 1.0);
       return Eigen::Vector3d(T_world_anchor * (ray * p_anchor.z()));
     };
-    const Eigen::Vector3d centreW = anchorPixelToWorld(centreA);
-    const Eigen::Vector3d stepXW = anchorPixelToWorld(centreA + Eigen::Vector2d(h, 0));
-    const Eigen::Vector3d stepYW = anchorPixelToWorld(centreA + Eigen::Vector2d(0, h));
 
     for (const auto& [obsKf, obsKp] : point.observations) {
-      if (obsKf == point.anchorKeyFrame) continue;
-      const auto image = images.find(obsKf);
-      if (image == images.end()) continue;
-      auto& aligned = alignedTo_[obsKf];
-      const auto done = aligned.find(obsKp);
-      if (done != aligned.end() && done->second == anchorObs) continue;
+      if (!pending(obsKf, obsKp)) continue;
       map::KeyFrame& kf = map.mutableKeyFrame(obsKf);
       cv::KeyPoint& kp = kf.keypoints.at(obsKp);
-      const features::ScalePyramid& pj = *image->second;
+      const features::ScalePyramid& pj = *images.at(obsKf);
       if (kp.octave < 0 || kp.octave >= pj.numLevels()) continue;
-      const auto toLevel = [&](const Eigen::Vector3d& w, Eigen::Vector2d* out) {
-        const Eigen::Vector3d c = kf.T_cam_world * w;
-        if (!(c.z() > 0)) return false;
-        *out = pj.toLevel(kf.camera.project(c), kp.octave);
-        return true;
+      const auto transfer = [&](const Eigen::Vector2d& anchorLevelPixel) -> std::optional<Eigen::Vector2d> {
+        const Eigen::Vector3d c = kf.T_cam_world * anchorPixelToWorld(anchorLevelPixel);
+        if (!(c.z() > 0)) return std::nullopt;
+        return pj.toLevel(kf.camera.project(c), kp.octave);
       };
-      Eigen::Vector2d c0, cx, cy;
-      if (!toLevel(centreW, &c0) || !toLevel(stepXW, &cx) || !toLevel(stepYW, &cy)) continue;
-      Eigen::Matrix2d A;
-      A.col(0) = (cx - c0) / h;
-      A.col(1) = (cy - c0) / h;
+      const std::optional<features::PatchWarp> warp = features::patchWarpOf(transfer, centreA, h);
+      if (!warp) continue;
       const Eigen::Vector2d start = pj.toLevel(Eigen::Vector2d(kp.pt.x, kp.pt.y), kp.octave);
       ++counts.tried;
-      aligned[obsKp] = anchorObs;
+      alignedTo_[obsKf][obsKp] = anchorObs;
       const features::PatchAlignmentResult r =
-          features::alignPatch(pa.level(ka.octave), centreA, A, pj.level(kp.octave), start, params_.alignment);
+          features::alignPatch(pa.level(ka.octave), centreA, warp->A, pj.level(kp.octave), start, params_.alignment);
       if (!r.accepted) continue;
       const Eigen::Vector2d u = pj.toLevel0(r.position, kp.octave);
       kp.pt = cv::Point2f(static_cast<float>(u.x()), static_cast<float>(u.y()));

@@ -11,6 +11,8 @@
 // y over a (2h) x (2h) grid of the image's pixels around p, A = d(image level px) / d(reference level px).
 // Pyramid levels are built by cv::resize (INTER_AREA) from level 0: level coordinates follow the resize's pixel-
 // centre convention, x_level = (x_0 + 0.5) / ratio - 0.5.
+#include <functional>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -67,6 +69,20 @@ struct PatchAlignmentResult {
   double zncc = 0.0;
   int iterations = 0;
 };
+
+/// The affine warp of a patch: where its centre lands in the image and A = d(image level px) / d(reference level px).
+struct PatchWarp {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d A = Eigen::Matrix2d::Identity();
+};
+
+/// Maps a reference level pixel to the image's level pixels; empty when it does not project (behind the camera).
+using PixelTransfer = std::function<std::optional<Eigen::Vector2d>(const Eigen::Vector2d&)>;
+
+/// The warp `transfer` predicts for the patch around `centre`, by forward differences over `step` reference pixels
+/// (the patch's half side, so A describes the patch, not the point's infinitesimal neighbourhood). Empty when any
+/// of the three pixels does not project.
+std::optional<PatchWarp> patchWarpOf(const PixelTransfer& transfer, const Eigen::Vector2d& centre, double step);
 
 /// Aligns the patch of `reference` (a pyramid level) around `referenceCentre` to `image`, starting at `start`,
 /// with the affine warp `A` (image level px per reference level px) held fixed. Both images CV_8UC1.
