@@ -7,7 +7,7 @@
 namespace pslam::tracking {
 
 namespace {
-NamedRegistry<MapInitializerFactory>& registry() {
+NamedRegistry<MapInitializerFactory>& initializerRegistry() {
   static NamedRegistry<MapInitializerFactory> r(
       {{"twoView", [](const geometry::PinholeCamera& camera, const InitializerParams& params,
                       const optimize::BundleAdjustmentParams& ba) {
@@ -24,15 +24,17 @@ NamedRegistry<MapInitializerFactory>& registry() {
 std::unique_ptr<MapInitializer> makeMapInitializer(const std::string& name, const geometry::PinholeCamera& camera,
                                                    const InitializerParams& params,
                                                    const optimize::BundleAdjustmentParams& ba) {
-  return registry().get(name, "[System] initializer", "initializer")(camera, params, ba);
+  return initializerRegistry().get(name, "[System] initializer", "initializer")(camera, params, ba);
 }
 
 void registerMapInitializer(const std::string& name, MapInitializerFactory factory) {
-  registry().add(name, std::move(factory));
+  initializerRegistry().add(name, std::move(factory));
 }
 
-std::vector<std::string> mapInitializerNames() { return registry().names(); }
+std::vector<std::string> mapInitializerNames() { return initializerRegistry().names(); }
 
-void requireMapInitializer(const std::string& name) { registry().get(name, "[System] initializer", "initializer"); }
+void requireMapInitializer(const std::string& name) {
+  initializerRegistry().get(name, "[System] initializer", "initializer");
+}
 
 }  // namespace pslam::tracking

@@ -40,7 +40,7 @@ optimize::PoseOptimizationResult TranslationOnlyPoseSolver::solve(const PoseSolv
 }
 
 namespace {
-NamedRegistry<PoseSolverFactory>& registry() {
+NamedRegistry<PoseSolverFactory>& poseSolverRegistry() {
   static NamedRegistry<PoseSolverFactory> r({
       {"full6dof", [](const optimize::PoseOptimizationParams& p) { return std::make_unique<FullPoseSolver>(p); }},
       {"translationOnly",
@@ -50,13 +50,17 @@ NamedRegistry<PoseSolverFactory>& registry() {
 }  // namespace
 
 std::unique_ptr<PoseSolver> makePoseSolver(const std::string& name, const optimize::PoseOptimizationParams& params) {
-  return registry().get(name, "[System] poseSolver", "pose solver")(params);
+  return poseSolverRegistry().get(name, "[System] poseSolver", "pose solver")(params);
 }
 
-void registerPoseSolver(const std::string& name, PoseSolverFactory factory) { registry().add(name, std::move(factory)); }
+void registerPoseSolver(const std::string& name, PoseSolverFactory factory) {
+  poseSolverRegistry().add(name, std::move(factory));
+}
 
-std::vector<std::string> poseSolverNames() { return registry().names(); }
+std::vector<std::string> poseSolverNames() { return poseSolverRegistry().names(); }
 
-void requirePoseSolver(const std::string& name) { registry().get(name, "[System] poseSolver", "pose solver"); }
+void requirePoseSolver(const std::string& name) {
+  poseSolverRegistry().get(name, "[System] poseSolver", "pose solver");
+}
 
 }  // namespace pslam::tracking
