@@ -11,6 +11,7 @@
 #                                           # local-mapping unit tests (its computations outside the map lock)
 #                                           # the prefetching rawlog reader's tests, the ORB
 #                                           # extractor's level threads and the map's gzip writer
+# Files are compiled one by one (PRIORSLAM_UNITY_BUILD=OFF): this build also checks that each compiles alone.
 # Env: SANITIZE_BUILD_DIR (default build-sanitize), SANITIZE_JOBS (default 2); ccache is used when installed.
 # Called by .ci/run after scripts/run-tests.sh, which has installed the dependencies.
 set -euo pipefail
@@ -38,7 +39,7 @@ if [[ $SCOPE == thread ]]; then
   start=$(date +%s)
   cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Tsan -DCMAKE_CXX_FLAGS_TSAN="$FLAGS" \
     -DCMAKE_EXE_LINKER_FLAGS_TSAN=-fsanitize=thread -DCMAKE_SHARED_LINKER_FLAGS_TSAN=-fsanitize=thread \
-    -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
+    -DPRIORSLAM_BUILD_BENCHMARKS=OFF -DPRIORSLAM_UNITY_BUILD=OFF "${launcher[@]}" >/dev/null
   cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper test_rawlog \
     test_global_ba_writeback test_places_e2e features_test_orb_extractor test_outputs
   built=$(date +%s)
@@ -99,7 +100,7 @@ cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Sanitize \
   -DCMAKE_EXE_LINKER_FLAGS_SANITIZE="$LINK_FLAGS" \
   -DCMAKE_SHARED_LINKER_FLAGS_SANITIZE="$LINK_FLAGS" \
   -DPRIORSLAM_COMPONENTS="$COMPONENTS" \
-  -DPRIORSLAM_BUILD_BENCHMARKS=OFF "${launcher[@]}" >/dev/null
+  -DPRIORSLAM_BUILD_BENCHMARKS=OFF -DPRIORSLAM_UNITY_BUILD=OFF "${launcher[@]}" >/dev/null
 
 mapfile -t tests < <(ctest --test-dir "$BUILD_DIR" -N -L "$LABELS" -E "$EXCLUDE" | sed -n 's/^ *Test *#[0-9]*: //p')
 [ "${#tests[@]}" -gt 0 ] || { echo "run-sanitizers: no tests found" >&2; exit 1; }
