@@ -267,7 +267,8 @@ double outlierRatio(const map::Map& map, KeyFrameId firstKeyFrame, double chi2) 
     // The point refit to all its observations, poses fixed: Gauss-Newton with Huber weights from where it is.
     Eigen::Vector3d X = map.worldPosition(id);
     // (A point seen once has no depth to refit: it stays.)
-    for (int iteration = 0; iteration < 5 && point.observations.size() >= 2; ++iteration) {
+    const int iterations = point.observations.size() >= 2 ? 5 : 0;
+    for (int iteration = 0; iteration < iterations; ++iteration) {
       Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
       Eigen::Vector3d g = Eigen::Vector3d::Zero();
       for (const auto& [kfId, k] : point.observations) {

@@ -1,9 +1,10 @@
 #include "pslam/mapping/ObservationRefiner.h"
 
-#include <algorithm>
 #include <iterator>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -80,17 +81,18 @@ RefinementCounts ObservationRefiner::refine(map::Map& map, map::KeyFrameId kfId)
     const cv::KeyPoint& ka = anchor.keypoints.at(point.anchorKeypoint);
     const features::ScalePyramid& pa = *anchorImage->second;
     if (ka.octave < 0 || ka.octave >= pa.numLevels()) continue;
-    // Only points with an observation not yet aligned to this anchor observation cost a back-projection.
-    const auto pending = [&](map::KeyFrameId obsKf, std::size_t obsKp) {
-      if (obsKf == point.anchorKeyFrame || !images.count(obsKf)) return false;
+    // The observations not yet aligned to this anchor observation; only points with some cost a back-projection.
+    std::vector<std::pair<map::KeyFrameId, std::size_t>> pending;
+    for (const auto& [obsKf, obsKp] : point.observations) {
+      if (obsKf == point.anchorKeyFrame || !images.count(obsKf)) continue;
       const auto kfAligned = alignedTo_.find(obsKf);
-      if (kfAligned == alignedTo_.end()) return true;
-      const auto done = kfAligned->second.find(obsKp);
-      return done == kfAligned->second.end() || done->second != anchorObs;
-    };
-    if (std::none_of(point.observations.begin(), point.observations.end(),
-                     [&](const auto& obs) { return pending(obs.first, obs.second); }))
-      continue;
+      if (kfAligned != alignedTo_.end()) {
+        const auto done = kfAligned->second.find(obsKp);
+        if (done != kfAligned->second.end() && done->second == anchorObs) continue;
+      }
+      pending.emplace_back(obsKf, obsKp);
+    }
+    if (pending.empty()) continue;
     const Eigen::Vector2d centreA = pa.toLevel(Eigen::Vector2d(ka.pt.x, ka.pt.y), ka.octave);
     // A level-0 pixel of the anchor, back-projected to the point's depth: where the other keyframe sees it.
     const Eigen::Isometry3d T_world_anchor = anchor.T_world_cam();
@@ -101,8 +103,7 @@ RefinementCounts ObservationRefiner::refine(map::Map& map, map::KeyFrameId kfId)
       return Eigen::Vector3d(T_world_anchor * (ray * p_anchor.z()));
     };
 
-    for (const auto& [obsKf, obsKp] : point.observations) {
-      if (!pending(obsKf, obsKp)) continue;
+    for (const auto& [obsKf, obsKp] : pending) {
       map::KeyFrame& kf = map.mutableKeyFrame(obsKf);
       cv::KeyPoint& kp = kf.keypoints.at(obsKp);
       const features::ScalePyramid& pj = *images.at(obsKf);
