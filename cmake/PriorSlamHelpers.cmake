@@ -10,7 +10,9 @@
 #   (alias priorslam::<name>_app), public include dir apps/<tool>/include. Built for the tool and its
 #   tests only: neither installed nor exported, and no algorithm library may link it.
 # priorslam_add_test(<name> SOURCES ... [DEPS ...] [LABELS unit|data|e2e])
-#   creates a GoogleTest executable registered with CTest (one CTest entry per executable).
+#   creates a GoogleTest executable registered with CTest (one CTest entry per executable). Test sources are
+#   compiled with ${PRIORSLAM_TEST_OPTIMIZATION} after the build type's flags (-O1 in Release: the code under
+#   test is the libraries', compiled with the build type's own flags).
 # priorslam_add_app(<exe-name> SOURCES ... [DEPS ...])
 #   an executable in <build>/bin. Executables of apps/<tool>/ are the tools: installed into bin/.
 #   Executables elsewhere (libs/*/bench) are developer benchmarks and are not installed.
@@ -59,7 +61,7 @@ function(priorslam_add_test name)
   endif()
   cmake_parse_arguments(A "" "" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${A_SOURCES})
-  target_compile_options(${name} PRIVATE ${PRIORSLAM_WARNINGS})
+  target_compile_options(${name} PRIVATE ${PRIORSLAM_WARNINGS} ${PRIORSLAM_TEST_OPTIMIZATION})
   target_link_libraries(${name} PRIVATE ${A_DEPS} GTest::gtest GTest::gtest_main)
   target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/tests/support)  # pslam_test/TestSupport.h
   target_compile_definitions(${name} PRIVATE
