@@ -9,10 +9,12 @@
 #   the app class of one tool (arguments, files, reports, plots): target priorslam_<name>_app
 #   (alias priorslam::<name>_app), public include dir apps/<tool>/include. Built for the tool and its
 #   tests only: neither installed nor exported, and no algorithm library may link it.
-# priorslam_add_test(<name> SOURCES ... [DEPS ...] [LABELS unit|data|e2e])
+# priorslam_add_test(<name> SOURCES ... [DEPS ...] [LABELS unit|data|e2e] [COST seconds])
 #   creates a GoogleTest executable registered with CTest (one CTest entry per executable). Test sources are
 #   compiled with ${PRIORSLAM_TEST_OPTIMIZATION} after the build type's flags (-O1 in Release: the code under
-#   test is the libraries', compiled with the build type's own flags).
+#   test is the libraries', compiled with the build type's own flags). COST: the test's run time in seconds on
+#   the 2-core machine, given for the long ones. CTest starts the costliest tests first, so that under
+#   ctest -j2 on a fresh build (no timing history yet) a long e2e test does not start last and run alone.
 # priorslam_add_app(<exe-name> SOURCES ... [DEPS ...])
 #   an executable in <build>/bin. Executables of apps/<tool>/ are the tools: installed into bin/.
 #   Executables elsewhere (libs/*/bench) are developer benchmarks and are not installed.
@@ -59,7 +61,7 @@ function(priorslam_add_test name)
   if(NOT PRIORSLAM_BUILD_TESTS)
     return()
   endif()
-  cmake_parse_arguments(A "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(A "" "COST" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${A_SOURCES})
   target_compile_options(${name} PRIVATE ${PRIORSLAM_WARNINGS} ${PRIORSLAM_TEST_OPTIMIZATION})
   target_link_libraries(${name} PRIVATE ${A_DEPS} GTest::gtest GTest::gtest_main)
@@ -73,6 +75,9 @@ function(priorslam_add_test name)
   endif()
   add_test(NAME ${name} COMMAND ${name} WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(${name} PROPERTIES LABELS "${A_LABELS}" SKIP_RETURN_CODE 77 TIMEOUT 900)
+  if(A_COST)
+    set_tests_properties(${name} PROPERTIES COST ${A_COST})
+  endif()
 endfunction()
 
 function(priorslam_add_app name)
