@@ -29,6 +29,18 @@ int main(int argc, char** argv) {
       cli.add_subcommand("residuals", "reprojection residuals per pyramid level: mean offsets (bias) and RMS");
   residualsCmd->add_option("map", residualsMap, "map file")->required();
   residualsCmd->add_flag("--json", residualsJson, "print JSON instead of text");
+  pslam::apps::OptimumOptions opt;
+  bool optimumJson = false;
+  CLI::App* optimumCmd = cli.add_subcommand(
+      "optimum", "keyframe ATE of the map, after a global BA from it and after one from the ground-truth poses");
+  optimumCmd->add_option("map", opt.map, "map file")->required();
+  optimumCmd->add_option("groundtruth", opt.groundTruth, "ground truth of the run (TUM, KITTI or EuRoC)")->required();
+  optimumCmd->add_option("--iterations", opt.iterations, "iterations per global BA")->capture_default_str();
+  optimumCmd->add_option("--segments", opt.segments, "stretches of the keyframe path for the scale spread (0 = none)")
+      ->capture_default_str();
+  optimumCmd->add_option("--max-diff", opt.maxTimeDifference, "keyframe stamp to ground truth, seconds")
+      ->capture_default_str();
+  optimumCmd->add_flag("--json", optimumJson, "print JSON instead of text");
   CLI11_PARSE(cli, argc, argv);
   try {
     if (*infoCmd) {
@@ -43,6 +55,12 @@ int main(int argc, char** argv) {
         std::cout << r.toJson().dump(2) << "\n";
       else
         std::cout << r.toText();
+    } else if (*optimumCmd) {
+      const pslam::apps::MapOptimum o = pslam::apps::mapOptimum(opt);
+      if (optimumJson)
+        std::cout << o.toJson().dump(2) << "\n";
+      else
+        std::cout << o.toText();
     } else {
       ex.map = exportMap;
       ex.ply = ply;

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include "SyntheticMap.h"
 #include "pslam/apps/SlamMapApp.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/Trajectory.h"
 #include "pslam/landmarks/KeypointModel.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/mapping/LocalMapper.h"
@@ -218,4 +220,116 @@ TEST(SlamMapApp, ResidualsRecoverAnOffsetPerLevelAndAScaleAboutThePrincipalPoint
   }
   EXPECT_EQ(total, r.all.count);
   EXPECT_EQ(r.toJson()["levels"].size(), r.levels.size());
+}
+
+namespace {
+/// The synthetic map's keyframe poses as a ground-truth trajectory in another frame: p_gt = s R p_map + t.
+Trajectory groundTruthOf(const map::Map& m, double s, const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+  Trajectory gt;
+  for (const auto& [id, kf] : m.keyFrames()) {
+    const Eigen::Isometry3d T = kf.T_world_cam();
+    Eigen::Isometry3d G = Eigen::Isometry3d::Identity();
+    G.linear() = R * T.linear();
+    G.translation() = s * R * T.translation() + t;
+    gt.emplace_back(kf.timestamp, G);
+  }
+  return gt;
+}
+}  // namespace
+
+map::Map curvedMap() {
+  map::testing::SyntheticScene scene;
+  return map::testing::buildSyntheticMap(6, 150, scene, 7, map::testing::poseOnCurve);
+}
+
+TEST(SlamMapApp, OptimumOfExactObservationsIsTheGroundTruth) {
+  // The keypoints are the exact projections of the points from the true poses, which the ground truth holds (in
+  // another frame and scale). With the keyframes moved off them, the map is wrong, the truth is the BA's optimum:
+  // a BA from the truth stays there at zero cost, and a BA from the moved map goes back to it.
+  map::Map m = curvedMap();
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Trajectory gt = groundTruthOf(m, 2.5, R, Eigen::Vector3d(10, -4, 2));
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const map::Map truthMap = m;
+  for (const auto& [id, kf] : truthMap.keyFrames()) {
+    if (id == m.rootKeyFrame()) continue;
+    Eigen::Isometry3d T = kf.T_cam_world;
+    T.pretranslate(Eigen::Vector3d(n(rng), n(rng), n(rng)) * 0.02);
+    T.prerotate(Eigen::AngleAxisd(0.004, Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized()));
+    m.setKeyFramePose(id, T);
+  }
+  apps::OptimumOptions o;
+  o.segments = 2;
+  const apps::MapOptimum r = apps::mapOptimum(m, gt, o);
+  ASSERT_EQ(r.stages.size(), 4u);
+  EXPECT_EQ(r.keyFrames, 6u);
+  EXPECT_GT(r.observations, 300u);
+  const apps::OptimumStage &saved = r.stages[0], &fromSaved = r.stages[1], &truth = r.stages[2],
+                           &fromTruth = r.stages[3];
+  EXPECT_EQ(saved.name, "saved");
+  EXPECT_EQ(fromTruth.name, "ba_from_groundtruth");
+  EXPECT_GT(saved.ate, 0.02) << "the moved keyframes, in ground-truth units";
+  EXPECT_GT(saved.cost, 1.0);
+  EXPECT_LT(truth.ate, 1e-9);
+  EXPECT_LT(truth.cost, 1e-4) << "exact observations: the refit depths fit them";
+  EXPECT_LT(fromTruth.ate, 1e-5);
+  EXPECT_LT(fromTruth.cost, 1e-4);
+  EXPECT_LT(fromSaved.ate, 0.05 * saved.ate) << "the BA from the moved map returns to the truth";
+  EXPECT_LT(fromSaved.cost, 1e-3);
+  EXPECT_GT(fromSaved.iterations, 0);
+  EXPECT_EQ(r.toJson()["stages"].size(), 4u);
+  EXPECT_NE(r.toText().find("ba_from_groundtruth"), std::string::npos);
+}
+
+TEST(SlamMapApp, OptimumOfBiasedObservationsIsNotTheGroundTruth) {
+  // The keypoints of levels 4-7 scaled about the principal point by 2 % (a focal length of their own): the truth no
+  // longer fits them, and both BAs end at the same optimum away from it, with a lower cost than the truth's.
+  map::Map m = curvedMap();
+  const Trajectory gt = groundTruthOf(m, 1.0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
+  for (const auto& [id, kf] : m.keyFrames()) {
+    map::KeyFrame& k = m.mutableKeyFrame(id);
+    for (std::size_t i = 0; i < k.keypoints.size(); ++i) {
+      cv::KeyPoint& kp = k.keypoints[i];
+      if (k.mapPointIds[i] == map::kNoMapPoint || kp.octave < 4) continue;
+      const cv::Point2f c(static_cast<float>(k.camera.cx), static_cast<float>(k.camera.cy));
+      kp.pt = c + (kp.pt - c) * 1.02f;
+    }
+  }
+  apps::OptimumOptions o;
+  o.segments = 0;
+  const apps::MapOptimum r = apps::mapOptimum(m, gt, o);
+  const apps::OptimumStage &truth = r.stages[2], &fromSaved = r.stages[1], &fromTruth = r.stages[3];
+  EXPECT_GT(truth.cost, 1.1 * fromTruth.cost) << r.toText();
+  EXPECT_GT(fromTruth.ate, 1e-3) << "the optimum of biased observations is off the truth";
+  EXPECT_NEAR(fromTruth.ate, fromSaved.ate, 0.05 * fromSaved.ate) << "one optimum, from either start";
+  EXPECT_NEAR(fromTruth.cost, fromSaved.cost, 0.01 * fromSaved.cost);
+}
+
+TEST(SlamMapApp, OptimumNamesWhatIsMissing) {
+  TempDir tmp;
+  const map::Map m = curvedMap();
+  Trajectory gt = groundTruthOf(m, 1.0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
+  apps::OptimumOptions o;
+  o.segments = 0;
+  o.groundTruth = "gt.txt";
+  Trajectory lacking = gt;
+  lacking.erase(lacking.begin() + 3);  // the keyframe at 1.5 s
+  EXPECT_NE(errorOf([&] { apps::mapOptimum(m, lacking, o); })
+                .find("keyframe 3 (stamp 1.500000 s) has no pose within 0.010 s in gt.txt"),
+            std::string::npos);
+  o.segments = 3;  // 6 keyframes: 2 per stretch
+  EXPECT_NE(errorOf([&] { apps::mapOptimum(m, gt, o); }).find("--segments 3 needs at least 3 keyframes per stretch"),
+            std::string::npos);
+  o.segments = 0;
+  o.iterations = 0;
+  EXPECT_NE(errorOf([&] { apps::mapOptimum(m, gt, o); }).find("--iterations"), std::string::npos);
+  o.iterations = 10;
+  o.map = tmp.path / "m.slammap";
+  map::saveMap(m, o.map);
+  o.groundTruth = tmp.path / "missing_gt.txt";
+  EXPECT_NE(errorOf([&] { apps::mapOptimum(o); }).find("missing_gt.txt"), std::string::npos);
+  writeTumTrajectory(tmp.path / "gt.txt", gt);
+  o.groundTruth = tmp.path / "gt.txt";
+  EXPECT_LT(apps::mapOptimum(o).stages[3].cost, 1e-4);
 }

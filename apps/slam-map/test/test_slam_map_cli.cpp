@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 
@@ -93,6 +94,34 @@ TEST(SlamMapCli, InfoAndExport) {
   const nlohmann::json r = nlohmann::json::parse(resJson.out);
   EXPECT_GT(r["all"]["count"].get<long>(), 0);
   EXPECT_LT(r["all"]["rms_px"].get<double>(), 1e-3);
+
+  // The keyframe poses are the truth of these exact keypoints: every state has zero error.
+  const fs::path gt = tmp.path / "gt.txt", curvedFile = tmp.path / "curved.slammap";
+  {
+    std::ofstream out(gt);
+    pslam::map::testing::SyntheticScene curvedScene;
+    const pslam::map::Map curved =
+        pslam::map::testing::buildSyntheticMap(6, 120, curvedScene, 7, pslam::map::testing::poseOnCurve);
+    pslam::map::saveMap(curved, curvedFile);
+    for (const auto& [id, kf] : curved.keyFrames()) {
+      const Eigen::Isometry3d T = kf.T_world_cam();
+      const Eigen::Quaterniond q(T.linear());
+      out << kf.timestamp << " " << T.translation().x() << " " << T.translation().y() << " " << T.translation().z()
+          << " " << q.x() << " " << q.y() << " " << q.z() << " " << q.w() << "\n";
+    }
+  }
+  const CliRun opt = runCli("optimum " + curvedFile.string() + " " + gt.string() + " --segments 2 --json", tmp.path);
+  ASSERT_EQ(opt.exitCode, 0) << opt.err;
+  const nlohmann::json o = nlohmann::json::parse(opt.out);
+  ASSERT_EQ(o["stages"].size(), 4u);
+  for (const auto& st : o["stages"]) EXPECT_LT(st["keyframe_ate_m"].get<double>(), 1e-4) << st.dump();
+  const CliRun optText = runCli("optimum " + curvedFile.string() + " " + gt.string() + " --segments 0", tmp.path);
+  EXPECT_EQ(optText.exitCode, 0) << optText.err;
+  EXPECT_NE(optText.out.find("ba_from_groundtruth"), std::string::npos) << optText.out;
+  const CliRun noGt = runCli("optimum " + file.string() + " " + (tmp.path / "none.txt").string(), tmp.path);
+  EXPECT_EQ(noGt.exitCode, 1);
+  EXPECT_EQ(std::count(noGt.err.begin(), noGt.err.end(), '\n'), 1) << noGt.err;
+  EXPECT_NE(noGt.err.find("none.txt"), std::string::npos) << noGt.err;
 }
 
 TEST(SlamMapCli, BadInputIsOneErrorLineAndExitCodeOne) {

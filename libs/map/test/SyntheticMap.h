@@ -24,9 +24,18 @@ inline Eigen::Isometry3d poseOnLine(int i) {
   return T_world_cam.inverse();
 }
 
+/// Keyframes on a bend (the line's poses with a sideways and forward offset growing with i^2): their centres are not
+/// collinear, so a Sim(3) alignment of them is determined.
+inline Eigen::Isometry3d poseOnCurve(int i) {
+  Eigen::Isometry3d T_world_cam = poseOnLine(i).inverse();
+  T_world_cam.translation() += Eigen::Vector3d(0.0, 0.03 * i * i, 0.05 * i * i);
+  return T_world_cam.inverse();
+}
+
 /// Builds `numKeyFrames` keyframes and `numPoints` points; every point is created by the first keyframe
 /// that sees it and observed by every later one that sees it.
-inline Map buildSyntheticMap(int numKeyFrames, int numPoints, SyntheticScene& scene, unsigned seed = 7) {
+inline Map buildSyntheticMap(int numKeyFrames, int numPoints, SyntheticScene& scene, unsigned seed = 7,
+                             Eigen::Isometry3d (*pose)(int) = poseOnLine) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> ux(-3.0, 4.0), uy(-2.0, 2.0), uz(4.0, 9.0);
   std::uniform_int_distribution<int> byte(0, 255), level(0, 7), bit(0, 255);
@@ -46,7 +55,7 @@ inline Map buildSyntheticMap(int numKeyFrames, int numPoints, SyntheticScene& sc
   for (int f = 0; f < numKeyFrames; ++f) {
     KeyFrame kf;
     kf.timestamp = f * 0.5;
-    kf.T_cam_world = poseOnLine(f);
+    kf.T_cam_world = pose(f);
     kf.camera = cam;
     kf.setPyramid(8, 1.2);
     std::vector<cv::Mat> rows;

@@ -6,6 +6,10 @@
 //   export  an ASCII PLY of the good map points and the keyframe centres, and a PNG top view of both
 //   residuals  the reprojection residuals of the map per pyramid level: a feature-position or calibration
 //           bias shows as mean offsets away from zero (doc/features.md)
+//   optimum  where the global-BA optimum of the map's own observations lies against ground truth: the keyframe
+//           ATE of the saved map, after a global BA from it, and after a global BA started at the ground-truth
+//           poses. Two BAs that end at the same cost and error from such different starts say the error left is
+//           in the measurements (keypoints, associations), not in the optimization (doc/maps.md)
 // A top view needs "up": the map's frame is the first keyframe's camera frame, not a gravity frame, so up is
 // taken as the mean of the keyframes' camera -y axes (cameras held roughly level), or, when those disagree,
 // as the normal of the plane the keyframe centres span.
@@ -19,6 +23,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "pslam/core/Trajectory.h"
 #include "pslam/map/Map.h"
 
 namespace pslam::apps {
@@ -95,6 +100,42 @@ MapInfo mapInfo(const map::Map& map, const std::filesystem::path& file = {});
 /// The inlier ratio phi of every good point that carries a valid keypoint-model state (default parameters of
 /// landmarks::KeypointModelParams; the map does not store the run's [PointModel]); by point id.
 std::vector<std::pair<map::MapPointId, double>> inlierRatios(const map::Map& map);
+
+struct OptimumOptions {
+  std::filesystem::path map;
+  std::filesystem::path groundTruth;  ///< TUM, KITTI or EuRoC trajectory (eval::readTrajectory)
+  int iterations = 50;                ///< per global BA (Ceres' function tolerance usually ends it earlier)
+  std::size_t segments = 8;           ///< the keyframe path in this many stretches for the scale spread; 0 = none
+  double maxTimeDifference = 0.01;    ///< seconds between a keyframe's stamp and its ground-truth pose
+  void check() const;                 ///< throws pslam::Error naming the option
+};
+
+/// One state of the map against the ground truth.
+struct OptimumStage {
+  std::string name;
+  double ate = 0;          ///< keyframe ATE rmse after a Sim(3) alignment, ground-truth units
+  double scaleSpread = 0;  ///< largest / smallest Sim(3) scale of the stretches - 1 (0 without segments)
+  double cost = 0;         ///< Ceres cost of the global problem (Huber, 1/2 sum of squares) in this state
+  double rmsPixels = 0;    ///< reprojection RMS over the global BA's inliers in this state
+  int iterations = 0;      ///< of the BA that produced this state (0: none)
+  std::size_t outliers = 0;
+  nlohmann::json toJson() const;
+};
+
+struct MapOptimum {
+  std::filesystem::path file, groundTruth;
+  std::size_t keyFrames = 0, observations = 0;
+  /// "saved", "ba_from_saved", "groundtruth_poses" (depths refit with the poses held), "ba_from_groundtruth".
+  std::vector<OptimumStage> stages;
+  nlohmann::json toJson() const;
+  std::string toText() const;
+};
+
+/// The four states above. Every keyframe needs a ground-truth pose within options.maxTimeDifference of its stamp
+/// (pslam::Error naming the keyframe and the ground-truth file otherwise); at least 3 keyframes, and 3 per stretch.
+MapOptimum mapOptimum(const map::Map& map, const Trajectory& groundTruth, const OptimumOptions& options);
+/// Reads options.map (map::loadMap) and options.groundTruth (eval::readTrajectory) first; errors name the file.
+MapOptimum mapOptimum(const OptimumOptions& options);
 
 struct MapExportOptions {
   std::filesystem::path map;
