@@ -576,6 +576,24 @@ OptimumStage measureStage(const std::string& name, const map::Map& map, const Tr
   return stage;
 }
 
+/// Two stages: `m` as it is, then after a global BA of it (which `m` receives).
+void addGlobalBundleAdjustmentStages(map::Map& m, const std::string& before, const std::string& after,
+                                     const optimize::BundleAdjustmentParams& ba, const Trajectory& groundTruthSorted,
+                                     const OptimumOptions& options, std::vector<OptimumStage>& stages) {
+  OptimumStage start = measureStage(before, m, groundTruthSorted, options);
+  optimize::BAResult r;
+  optimize::globalBundleAdjustment(m, ba, &r);
+  start.cost = r.initialCost;
+  start.rmsPixels = r.initialRmsPixels;
+  OptimumStage end = measureStage(after, m, groundTruthSorted, options);
+  end.cost = r.finalCost;
+  end.rmsPixels = r.finalRmsPixels;
+  end.iterations = r.iterations;
+  end.outliers = r.outliers.size();
+  stages.push_back(start);
+  stages.push_back(end);
+}
+
 }  // namespace
 
 void OptimumOptions::check() const {
@@ -631,16 +649,7 @@ MapOptimum mapOptimum(const map::Map& savedMap, const Trajectory& groundTruth, c
 
   // 1-2. The saved map, and a global BA from it.
   map::Map fromSaved = savedMap;
-  optimize::BAResult r;
-  optimize::globalBundleAdjustment(fromSaved, ba, &r);
-  OptimumStage saved = measureStage("saved", savedMap, gt, options);
-  saved.cost = r.initialCost;
-  saved.rmsPixels = r.initialRmsPixels;
-  OptimumStage afterSaved = measureStage("ba_from_saved", fromSaved, gt, options);
-  afterSaved.cost = r.finalCost;
-  afterSaved.rmsPixels = r.finalRmsPixels;
-  afterSaved.iterations = r.iterations;
-  afterSaved.outliers = r.outliers.size();
+  addGlobalBundleAdjustmentStages(fromSaved, "saved", "ba_from_saved", ba, gt, options, out.stages);
   out.observations = optimize::makeGlobalProblem(savedMap).observations.size();
 
   // 3. Every keyframe at its ground-truth pose, brought into the map's frame by the saved map's Sim(3) alignment
@@ -662,17 +671,8 @@ MapOptimum mapOptimum(const map::Map& savedMap, const Trajectory& groundTruth, c
     refit.firstPassIterations = refit.secondPassIterations = options.iterations;
     optimize::applyResult(atTruth, depthsOnly, optimize::localBundleAdjustment(depthsOnly, refit), false);
   }
-  OptimumStage truth = measureStage("groundtruth_poses", atTruth, gt, options);
   // 4. A global BA from there.
-  optimize::globalBundleAdjustment(atTruth, ba, &r);
-  truth.cost = r.initialCost;
-  truth.rmsPixels = r.initialRmsPixels;
-  OptimumStage afterTruth = measureStage("ba_from_groundtruth", atTruth, gt, options);
-  afterTruth.cost = r.finalCost;
-  afterTruth.rmsPixels = r.finalRmsPixels;
-  afterTruth.iterations = r.iterations;
-  afterTruth.outliers = r.outliers.size();
-  out.stages = {saved, afterSaved, truth, afterTruth};
+  addGlobalBundleAdjustmentStages(atTruth, "groundtruth_poses", "ba_from_groundtruth", ba, gt, options, out.stages);
   return out;
 }
 
