@@ -210,7 +210,6 @@ std::string EvalApp::formatTable(const EvalResult& r) const {
     std::snprintf(buf, sizeof(buf), "%7s %13s %18s %9s %10s %10s", "segment", "pairs", "time [s]", "path [m]",
                   "scale", "ATE [m]");
     out << buf << "\n";
-    double lo = r.segments.front().alignment.scale, hi = lo;
     const double t0 = r.gtAssociated.front().timestamp;
     for (std::size_t k = 0; k < r.segments.size(); ++k) {
       const SegmentAlignment& g = r.segments[k];
@@ -220,12 +219,11 @@ std::string EvalApp::formatTable(const EvalResult& r) const {
       std::snprintf(row, sizeof(row), "%7zu %13s %18s %9.3f %10.6f %10.6f", k + 1, pairs, span, g.pathLength,
                     g.alignment.scale, g.ate.rmse);
       out << row << "\n";
-      lo = std::min(lo, g.alignment.scale);
-      hi = std::max(hi, g.alignment.scale);
     }
     if (mode == AlignmentMode::Sim3) {
-      std::snprintf(buf, sizeof(buf), "segment scales %.6f-%.6f: largest / smallest - 1 = %.2f %%", lo, hi,
-                    100.0 * (hi / lo - 1.0));
+      const SegmentScaleRange scales = segmentScaleRange(r.segments);
+      std::snprintf(buf, sizeof(buf), "segment scales %.6f-%.6f: largest / smallest - 1 = %.2f %%", scales.smallest,
+                    scales.largest, 100.0 * scales.spread());
       out << buf << "\n";
     }
   }

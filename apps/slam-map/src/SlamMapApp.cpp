@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <iomanip>
-#include <limits>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
@@ -564,15 +563,10 @@ OptimumStage measureStage(const std::string& name, const map::Map& map, const Tr
   stage.name = name;
   const eval::Alignment a = eval::alignTrajectories(pairs.groundTruth, pairs.estimate, eval::AlignmentMode::Sim3);
   stage.ate = eval::computeAte(pairs.groundTruth, eval::applyAlignment(pairs.estimate, a)).stats.rmse;
-  if (options.segments > 0) {
-    double smallest = std::numeric_limits<double>::infinity(), largest = 0.0;
-    for (const eval::SegmentAlignment& s :
-         eval::alignSegments(pairs.groundTruth, pairs.estimate, eval::AlignmentMode::Sim3, options.segments)) {
-      smallest = std::min(smallest, s.alignment.scale);
-      largest = std::max(largest, s.alignment.scale);
-    }
-    stage.scaleSpread = largest / smallest - 1.0;
-  }
+  if (options.segments > 0)
+    stage.scaleSpread = eval::segmentScaleRange(eval::alignSegments(pairs.groundTruth, pairs.estimate,
+                                                                    eval::AlignmentMode::Sim3, options.segments))
+                            .spread();
   return stage;
 }
 
@@ -650,7 +644,7 @@ MapOptimum mapOptimum(const map::Map& savedMap, const Trajectory& groundTruth, c
   // 1-2. The saved map, and a global BA from it.
   map::Map fromSaved = savedMap;
   addGlobalBundleAdjustmentStages(fromSaved, "saved", "ba_from_saved", ba, gt, options, out.stages);
-  out.observations = optimize::makeGlobalProblem(savedMap).observations.size();
+  forGoodPoints(savedMap, [&](map::MapPointId, const map::MapPoint& p) { out.observations += p.observations.size(); });
 
   // 3. Every keyframe at its ground-truth pose, brought into the map's frame by the saved map's Sim(3) alignment
   // (p_gt = s R p_map + t), the points' depths refit along their anchor rays with the poses held.

@@ -133,6 +133,17 @@ std::vector<SegmentAlignment> alignSegments(const Trajectory& gt, const Trajecto
   return out;
 }
 
+SegmentScaleRange segmentScaleRange(const std::vector<SegmentAlignment>& segments) {
+  if (segments.empty()) throw Error("segments: no segment to take a scale range of");
+  SegmentScaleRange r;
+  r.smallest = r.largest = segments.front().alignment.scale;
+  for (const SegmentAlignment& s : segments) {
+    r.smallest = std::min(r.smallest, s.alignment.scale);
+    r.largest = std::max(r.largest, s.alignment.scale);
+  }
+  return r;
+}
+
 Trajectory applyAlignment(const Trajectory& trajectory, const Alignment& alignment) {
   Trajectory out = trajectory;
   const Eigen::Quaterniond qAlign(alignment.rotation);

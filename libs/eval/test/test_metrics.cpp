@@ -117,6 +117,11 @@ TEST(Segments, EachSegmentRecoversItsOwnScaleWhereOneAlignmentCannot) {
     for (std::size_t i = firsts[k] + 1; i <= lasts[k]; ++i) length += (gt[i].position - gt[i - 1].position).norm();
     EXPECT_NEAR(seg[k].pathLength, length, 1e-12);
   }
+  const SegmentScaleRange range = segmentScaleRange(seg);
+  EXPECT_NEAR(range.smallest, 1.5, 1e-9);
+  EXPECT_NEAR(range.largest, 2.5, 1e-9);
+  EXPECT_NEAR(range.spread(), 2.5 / 1.5 - 1.0, 1e-9);
+  EXPECT_THROW(segmentScaleRange({}), Error);
   // Segments that straddle the jumps do not fit: 4 segments of 25 pairs, the second and third hold a jump.
   const std::vector<SegmentAlignment> four = alignSegments(gt, est, AlignmentMode::Sim3, 4);
   EXPECT_LT(four[0].ate.rmse, 1e-9);

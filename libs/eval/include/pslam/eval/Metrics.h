@@ -75,6 +75,14 @@ struct SegmentAlignment {
 std::vector<SegmentAlignment> alignSegments(const Trajectory& gt, const Trajectory& est, AlignmentMode mode,
                                             std::size_t segments);
 
+/// The smallest and largest alignment scale of the segments; spread() = largest / smallest - 1, the scale drift
+/// along the path that one alignment of the whole run cannot absorb. Throws pslam::Error for no segments.
+struct SegmentScaleRange {
+  double smallest = 1.0, largest = 1.0;
+  double spread() const { return largest / smallest - 1.0; }
+};
+SegmentScaleRange segmentScaleRange(const std::vector<SegmentAlignment>& segments);
+
 /// Applies the alignment to every pose of `trajectory` (positions s R p + t, orientations R q).
 Trajectory applyAlignment(const Trajectory& trajectory, const Alignment& alignment);
 
