@@ -6,6 +6,17 @@
 #include "pslam/apps/SlamMapApp.h"
 #include "pslam/core/Error.h"
 
+namespace {
+/// A subcommand's result on stdout: indented JSON with --json, else its text.
+template <class Result>
+void print(const Result& result, bool json) {
+  if (json)
+    std::cout << result.toJson().dump(2) << "\n";
+  else
+    std::cout << result.toText();
+}
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App cli{"Saved maps (.slammap): what is in them, and a PLY / PNG view of them"};
   cli.require_subcommand(1);
@@ -44,23 +55,11 @@ int main(int argc, char** argv) {
   CLI11_PARSE(cli, argc, argv);
   try {
     if (*infoCmd) {
-      const pslam::apps::MapInfo i = pslam::apps::mapInfo(infoMap);
-      if (json)
-        std::cout << i.toJson().dump(2) << "\n";
-      else
-        std::cout << i.toText();
+      print(pslam::apps::mapInfo(infoMap), json);
     } else if (*residualsCmd) {
-      const pslam::apps::MapResiduals r = pslam::apps::mapResiduals(residualsMap);
-      if (residualsJson)
-        std::cout << r.toJson().dump(2) << "\n";
-      else
-        std::cout << r.toText();
+      print(pslam::apps::mapResiduals(residualsMap), residualsJson);
     } else if (*optimumCmd) {
-      const pslam::apps::MapOptimum o = pslam::apps::mapOptimum(opt);
-      if (optimumJson)
-        std::cout << o.toJson().dump(2) << "\n";
-      else
-        std::cout << o.toText();
+      print(pslam::apps::mapOptimum(opt), optimumJson);
     } else {
       ex.map = exportMap;
       ex.ply = ply;
