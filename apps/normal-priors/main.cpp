@@ -1,4 +1,4 @@
-// normal-priors: adds the NORMALS channel (DESIGN.md §3) to a rawlog, from depth or from a network.
+// normal-priors: adds the NORMALS channel (doc/architecture.md, "Data contracts") to a rawlog, from depth or from a network.
 // Thin CLI around pslam::priors::runNormalPriors (libs/priors); see doc/manhattan.md.
 #include <cstdio>
 #include <exception>

@@ -18,10 +18,6 @@ namespace fs = std::filesystem;
 
 namespace pslam::priors {
 
-nlohmann::json NormalPriorsResult::toJson() const {
-  return {{"frames", frames}, {"mean_normals_ms", meanNormalsMs}, {"mean_planar_share", meanPlanarShare}};
-}
-
 namespace {
 fs::path groundTruthFor(const fs::path& rawlog) {
   return rawlog.parent_path() / (rawlog.stem().string() + "_groundtruth.txt");

@@ -315,8 +315,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 }
 Range atLeast(double lo) { return Range(lo, false, kInf, true); }
 Range greaterThan(double lo) { return Range(lo, true, kInf, true); }
-Range atMost(double hi) { return Range(-kInf, true, hi, false); }
-Range lessThan(double hi) { return Range(-kInf, true, hi, true); }
 Range inClosed(double lo, double hi) { return Range(lo, false, hi, false); }
 Range inOpen(double lo, double hi) { return Range(lo, true, hi, true); }
 Range inLeftOpen(double lo, double hi) { return Range(lo, true, hi, false); }

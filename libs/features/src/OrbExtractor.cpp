@@ -348,17 +348,10 @@ void OrbExtractor::processLevel(int l, cv::ORB& describer, LevelOutput& out) con
       same = inPadded[i].angle == kps[i].angle && inPadded[i].pt.x == kps[i].pt.x + E &&
              inPadded[i].pt.y == kps[i].pt.y + E;
     if (!same) throw Error("OrbExtractor::extract: OpenCV ORB changed the keypoints of level " + std::to_string(l));
-    const float sx = static_cast<float>(pyramid_[0].cols) / static_cast<float>(pyramid_[l].cols);
-    const float sy = static_cast<float>(pyramid_[0].rows) / static_cast<float>(pyramid_[l].rows);
+    // ORB-SLAM's level -> image mapping, x_0 = x_l s^l (the exact inverse of the resize was tried and did not
+    // pay end to end: doc/features.md, step 7).
     out.keypoints = std::move(kps);
-    for (cv::KeyPoint& kp : out.keypoints) {
-      if (params_.exactLevelCoordinates && l > 0) {
-        kp.pt.x = toOriginalPixel(kp.pt.x, sx);
-        kp.pt.y = toOriginalPixel(kp.pt.y, sy);
-      } else {
-        kp.pt *= scale_[l];
-      }
-    }
+    for (cv::KeyPoint& kp : out.keypoints) kp.pt *= scale_[l];
   }
   out.descriptorMs = msSince(start);
   out.descriptorCpuMs = threadCpuMs() - cpu;

@@ -216,12 +216,11 @@ TEST(OrbExtractor, DeterministicAcrossRunsAndInstances) {
 
 TEST(OrbExtractor, ThreadsShareOutTheLevelsWithoutChangingTheOutput) {
   // Levels are processed on whichever worker takes them; the output must be the one-thread output bit for bit,
-  // for more threads than levels too, with ORB-SLAM's level coordinates and the exact ones.
+  // for more threads than levels too.
   const cv::Mat img = texturedImage(700, 500, 7);
-  for (const bool exact : {false, true}) {
+  {
     OrbParams one;
     one.threads = 1;
-    one.exactLevelCoordinates = exact;
     std::vector<cv::KeyPoint> k1;
     cv::Mat d1;
     OrbExtractor(one).extract(img, k1, d1);
@@ -429,76 +428,11 @@ TEST(OrbExtractor, RoiInputEqualsItsCopy) {
   EXPECT_EQ(cv::norm(da, db, cv::NORM_HAMMING), 0.0);
 }
 
-namespace {
-
-/// Mean image-x/y offset (px, in the first image) between the keypoints of `img` and those of the same image
-/// zoomed by `zoom` about its centre, matched by position (within 0.75 px), level (the zoomed image's keypoint
-/// `levels` higher) and descriptor. A keypoint's image coordinates are unbiased when the mean offset is ~0.
-cv::Point2d meanZoomOffset(const cv::Mat& img, double zoom, int levels, bool exact, int* matches) {
-  OrbParams p;
-  p.nFeatures = 3000;
-  p.exactLevelCoordinates = exact;
-  OrbExtractor ex(p);
-  const cv::Point2d c((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
-  const cv::Size big(static_cast<int>(std::lround(img.cols * zoom)), static_cast<int>(std::lround(img.rows * zoom)));
-  const cv::Mat M2 = (cv::Mat_<double>(2, 3) << zoom, 0, (big.width - 1) / 2.0 - zoom * c.x, 0, zoom,
-                      (big.height - 1) / 2.0 - zoom * c.y);
-  cv::Mat zoomed;
-  cv::warpAffine(img, zoomed, M2, big, cv::INTER_CUBIC, cv::BORDER_REFLECT_101);
-  const cv::Point2d c2((big.width - 1) / 2.0, (big.height - 1) / 2.0);
-  std::vector<cv::KeyPoint> k1, k2;
-  cv::Mat d1, d2;
-  ex.extract(img, k1, d1);
-  ex.extract(zoomed, k2, d2);
-  cv::Point2d sum(0, 0);
-  int n = 0;
-  for (size_t j = 0; j < k2.size(); ++j) {
-    if (k2[j].octave < levels) continue;
-    const cv::Point2d q((k2[j].pt.x - c2.x) / zoom + c.x, (k2[j].pt.y - c2.y) / zoom + c.y);  // in img
-    int best = -1;
-    double bestD = 0.75;
-    for (size_t i = 0; i < k1.size(); ++i) {
-      if (k1[i].octave != k2[j].octave - levels) continue;
-      const double d = cv::norm(cv::Point2d(k1[i].pt) - q);
-      if (d < bestD && hammingDistance(d1, static_cast<int>(i), d2, static_cast<int>(j)) < 40) {
-        bestD = d;
-        best = static_cast<int>(i);
-      }
-    }
-    if (best < 0) continue;
-    sum += q - cv::Point2d(k1[best].pt);
-    ++n;
-  }
-  *matches = n;
-  return n > 0 ? sum / n : cv::Point2d(0, 0);
-}
-
-}  // namespace
-
-TEST(OrbExtractor, ExactLevelCoordinatesAreUnbiasedAcrossLevels) {
-  // The same texture at two scales, 1.2^2 apart: a corner at level l of the original is at level l + 2 of the
-  // zoomed image. Mapped to image coordinates, both must land on the same point of the texture. ORB-SLAM's
-  // mapping (x_l * 1.2^l) puts the zoomed image's keypoints about 0.5 (1.44 - 1) / 1.44 = 0.15 px too far up-left,
-  // plus what the rounding of the level sizes adds (measured: 0.29 px in x, 0.08 px in y); the resize mapping has
-  // no such offset (measured: below 0.005 px).
-  const cv::Mat img = texturedImage(640, 480, 7);
-  int nExact = 0, nOrbSlam = 0;
-  const cv::Point2d exact = meanZoomOffset(img, 1.44, 2, true, &nExact);
-  const cv::Point2d orbSlam = meanZoomOffset(img, 1.44, 2, false, &nOrbSlam);
-  ASSERT_GE(nExact, 200) << "too few keypoints repeated across the zoom";
-  ASSERT_GE(nOrbSlam, 200);
-  EXPECT_LT(std::abs(exact.x), 0.05) << exact;
-  EXPECT_LT(std::abs(exact.y), 0.05) << exact;
-  EXPECT_GT(std::hypot(orbSlam.x, orbSlam.y), 0.1) << orbSlam;  // so the check above can tell
-  std::printf("mean offset (px): exact (%.3f, %.3f) over %d; ORB-SLAM (%.3f, %.3f) over %d\n", exact.x, exact.y,
-              nExact, orbSlam.x, orbSlam.y, nOrbSlam);
-}
-
 TEST(OrbExtractor, LevelZeroKeypointsSitOnTheCornersTheyDetect) {
   // Random filled polygons drawn at 8x and area-averaged down (pixel centres mapped: x_big = 8 x + 3.5) have
   // known vertices; the level-0 keypoints near a vertex must not be offset from it on average (FAST's integer
   // pixel spreads them by up to half a pixel in every direction). The biased level mapping of ORB-SLAM could only
-  // be right if this offset were about +0.5 px (ExactLevelCoordinatesAreUnbiasedAcrossLevels, doc/features.md).
+  // be right if this offset were about +0.5 px (doc/features.md, step 7).
   // One level: the premise of the level mapping, not the mapping itself.
   const int S = 8, W = 640, H = 480;
   std::mt19937 rng(3);

@@ -344,15 +344,6 @@ const char* toString(TwoViewFailure failure) {
   return "?";
 }
 
-mrpt::poses::CPose3D TwoViewResult::poseCurRef() const {
-  mrpt::math::CMatrixDouble44 T = mrpt::math::CMatrixDouble44::Identity();
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) T(r, c) = R_cur_ref(r, c);
-    T(r, 3) = t_cur_ref(r);
-  }
-  return mrpt::poses::CPose3D(T);
-}
-
 // ---- TwoViewInitializer
 
 TwoViewInitializer::TwoViewInitializer(PinholeCamera camera, TwoViewParams params)

@@ -6,14 +6,6 @@
 
 namespace pslam::lines {
 
-bool lineResidual(const map::CameraIntrinsics& camera, const Eigen::Vector3d& l, double invSigma,
-                  const Eigen::Vector3d& start_cam, const Eigen::Vector3d& end_cam, Eigen::Vector2d& residual) {
-  if (!(start_cam.z() > 0.0) || !(end_cam.z() > 0.0)) return false;
-  residual.x() = invSigma * lineDistance(l, camera.project(start_cam));
-  residual.y() = invSigma * lineDistance(l, camera.project(end_cam));
-  return true;
-}
-
 LinePoseFactor::LinePoseFactor(const Line3& line, const Eigen::Vector2d& observedStart,
                                const Eigen::Vector2d& observedEnd, const map::CameraIntrinsics& camera,
                                double pixelSigma)

@@ -594,7 +594,6 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
       report.withdrawn = true;
       report.keyFrameScales.clear();
       groups_.clear();  // the same candidate must be consistent over `consistency` keyframes again
-      ++loopsWithdrawn_;
       break;
     }
     // Threaded: the previous loop's global BA still runs on a copy of the map that lacks this correction; it is
@@ -606,7 +605,6 @@ LoopReport LoopCloser::processKeyFrame(KeyFrameId kfId) {
     globalBundleAdjustment(posesBefore, report);
     lastLoopKeyFrame_ = kfId;
     groups_.clear();
-    ++loopsClosed_;
     break;
   }
   report.ms = msSince(t0);

@@ -216,12 +216,6 @@ ManhattanEstimate refineManhattanFrame(const std::vector<Eigen::Vector3d>& norma
 // -------------------------------------------------------------------------------------------- tracker
 ManhattanTracker::ManhattanTracker(ManhattanParams params) : params_(params), rng_(params.seed) { params_.check(); }
 
-void ManhattanTracker::reset() {
-  initialized_ = false;
-  R_cam_mf_.setIdentity();
-  rng_.seed(params_.seed);
-}
-
 std::vector<Eigen::Vector3d> ManhattanTracker::subsample(const std::vector<Eigen::Vector3d>& normals) {
   if (normals.size() <= params_.maxNormals) return normals;
   std::vector<Eigen::Vector3d> out;

@@ -395,9 +395,4 @@ BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustment
   return run(problem, params, fixed, params.globalIterations, 0, stop);
 }
 
-Eigen::Vector2d observationResidual(const BAProblem& problem, const BAObservation& observation) {
-  const State state(problem);
-  return evaluate(problem, state, observation).whitened;
-}
-
 }  // namespace pslam::optimize

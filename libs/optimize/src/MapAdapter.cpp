@@ -97,14 +97,6 @@ MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BARe
   return s;
 }
 
-MapUpdateSummary localBundleAdjustment(map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params,
-                                       BAResult* resultOut, const PointFilter& usePoint) {
-  const BAProblem problem = makeLocalProblem(map, centre, params, usePoint);
-  const BAResult result = localBundleAdjustment(problem, params);
-  if (resultOut) *resultOut = result;
-  return applyResult(map, problem, result, true);
-}
-
 MapUpdateSummary globalBundleAdjustment(map::Map& map, const BundleAdjustmentParams& params, BAResult* resultOut,
                                         const PointFilter& usePoint) {
   const BAProblem problem = makeGlobalProblem(map, usePoint);

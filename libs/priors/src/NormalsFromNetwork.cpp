@@ -31,10 +31,6 @@ void NetworkNormalParams::loadFromConfigFile(const mrpt::config::CConfigFileBase
   resolvePaths(baseDir);
 }
 
-void NetworkNormalParams::saveToConfigFile(mrpt::config::CConfigFileBase& c, const std::string& s) const {
-  params::save(*this, c, s);
-}
-
 void NetworkNormalParams::check() const { params::check(*this, kSection); }
 
 void NetworkNormalParams::resolvePaths(const std::string& baseDir) {

@@ -12,15 +12,6 @@
 
 namespace pslam::priors {
 
-SemanticClass parseSemanticClass(const std::string& text, const std::string& context) {
-  std::string t = text;
-  std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (t == "static") return SemanticClass::Static;
-  if (t == "dynamic") return SemanticClass::Dynamic;
-  if (t == "invalid") return SemanticClass::Invalid;
-  throw Error(context + ": group '" + text + "' unknown (expected static, dynamic or invalid)");
-}
-
 std::string toString(SemanticClass c) {
   switch (c) {
     case SemanticClass::Static: return "static";
@@ -124,14 +115,6 @@ void SemanticClassMap::loadFromConfigFile(const mrpt::config::CConfigFileBase& c
     groups[i] = group(key, *text, text->substr(lastSpace + 1));
   }
   check();
-}
-
-void SemanticClassMap::saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const {
-  cfg.write(section, "name", name);
-  cfg.write(section, "numClasses", numClasses());
-  cfg.write(section, "unlabeled", toString(unlabeled));
-  for (int i = 0; i < numClasses(); ++i)
-    cfg.write(section, "class" + std::to_string(i), classNames[i] + " " + toString(groups[i]));
 }
 
 void SemanticClassMap::check() const {

@@ -454,8 +454,6 @@ float hashUnit(std::int64_t a, std::int64_t b, std::uint32_t seed) {
   return lattice(a * 0x632BE5ABLL + 17, b, seed ^ 0x5bd1e995U);
 }
 
-float valueNoise(double x, double y, std::uint32_t seed) { return valueNoiseInline(x, y, seed); }
-
 float fractalNoise(double x, double y, std::uint32_t seed, double baseFrequency, int octaves, double footprint) {
   // Normalisation over all octaves (not only the resolved ones) keeps the contrast of the coarse octaves
   // independent of distance; the persistence 0.55 gives a roughly 1/f spectrum like natural surfaces.

@@ -31,8 +31,6 @@ void registerMapInitializer(const std::string& name, MapInitializerFactory facto
   initializerRegistry().add(name, std::move(factory));
 }
 
-std::vector<std::string> mapInitializerNames() { return initializerRegistry().names(); }
-
 void requireMapInitializer(const std::string& name) {
   initializerRegistry().get(name, "[System] initializer", "initializer");
 }

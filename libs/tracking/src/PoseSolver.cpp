@@ -57,8 +57,6 @@ void registerPoseSolver(const std::string& name, PoseSolverFactory factory) {
   poseSolverRegistry().add(name, std::move(factory));
 }
 
-std::vector<std::string> poseSolverNames() { return poseSolverRegistry().names(); }
-
 void requirePoseSolver(const std::string& name) {
   poseSolverRegistry().get(name, "[System] poseSolver", "pose solver");
 }

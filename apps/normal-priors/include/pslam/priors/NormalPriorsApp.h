@@ -39,7 +39,6 @@ struct NormalPriorsResult {
   std::size_t frames = 0;
   double meanNormalsMs = 0.0;     ///< time per frame of the normal source
   double meanPlanarShare = 0.0;   ///< mean share of pixels that received a normal
-  nlohmann::json toJson() const;
 };
 
 /// Runs the conversion. Throws pslam::Error naming the file/frame on bad input; the output appears only

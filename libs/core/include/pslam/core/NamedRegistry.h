@@ -31,13 +31,6 @@ class NamedRegistry {
     std::lock_guard<std::mutex> lk(mutex_);
     factories_[name] = std::move(factory);
   }
-  /// Registered names, sorted.
-  std::vector<std::string> names() const {
-    std::lock_guard<std::mutex> lk(mutex_);
-    std::vector<std::string> out;
-    for (const auto& [n, f] : factories_) out.push_back(n);
-    return out;
-  }
 
  private:
   mutable std::mutex mutex_;

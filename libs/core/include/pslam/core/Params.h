@@ -1,5 +1,5 @@
 #pragma once
-// One declarative parameter mechanism (DESIGN.md §5, doc/conventions.md "Parameters").
+// One declarative parameter mechanism (doc/architecture.md, "Configuration", doc/conventions.md "Parameters").
 //
 // A parameter struct lists its fields once, in visitFields(): key, member, rule, one-line doc.
 //
@@ -251,8 +251,6 @@ class Range {
 };
 Range atLeast(double lo);
 Range greaterThan(double lo);
-Range atMost(double hi);
-Range lessThan(double hi);
 Range inClosed(double lo, double hi);     ///< [lo, hi]
 Range inOpen(double lo, double hi);       ///< (lo, hi)
 Range inLeftOpen(double lo, double hi);   ///< (lo, hi]

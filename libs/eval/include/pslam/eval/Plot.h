@@ -70,7 +70,6 @@ class Plot {
   void setYRange(double lo, double hi);
 
   PlotStyle& style() { return style_; }
-  const std::vector<PlotSeries>& series() const { return series_; }
 
   /// Renders to a CV_8UC3 image. An empty plot renders empty axes over [0,1]^2.
   cv::Mat render() const;

@@ -15,7 +15,6 @@ struct OctaveRange {
   int min = 0;
   int max = std::numeric_limits<int>::max();
   bool contains(int octave) const { return octave >= min && octave <= max; }
-  static OctaveRange all() { return {}; }
   static OctaveRange only(int octave) { return {octave, octave}; }
 };
 
@@ -38,9 +37,6 @@ class FeatureGrid {
   std::vector<size_t> featuresInRadius(float cx, float cy, float radius, OctaveRange octaves = {}) const;
 
   size_t size() const { return positions_.size(); }
-  int cols() const { return cols_; }
-  int rows() const { return rows_; }
-  const cv::Rect2f& bounds() const { return bounds_; }
 
  private:
   int cellX(float x) const;

@@ -22,7 +22,6 @@ struct IndexMatch {
   int i1 = -1;
   int i2 = -1;
   int distance = 0;  ///< Hamming distance
-  bool operator==(const IndexMatch& o) const { return i1 == o.i1 && i2 == o.i2 && distance == o.distance; }
 };
 
 /// Best and second-best candidate of one descriptor among `candidates` (rows of `descriptors`): the building block

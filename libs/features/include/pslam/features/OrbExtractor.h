@@ -30,11 +30,6 @@ struct OrbParams {
   /// true: one cv::FAST call per cell exactly as ORB-SLAM (reference, slower); false: one FAST call per level
   /// at iniThFAST, per-cell fallback to minThFAST only in cells without a corner (same thresholds per cell).
   bool literalCellFast = false;
-  /// How a level's keypoint becomes a level-0 pixel: false = ORB-SLAM's x_l * scaleFactor^l; true = the mapping
-  /// the pyramid was resized with (cv::resize, pixel centres): x_0 = (x_l + 0.5) * cols_0 / cols_l - 0.5 (rows
-  /// alike). ORB-SLAM's is off by 0.5 (s_l - 1) px (1.3 px at level 7 of 1.2) and by the rounding of the level
-  /// sizes, a bias that changes as a tracked point moves between levels.
-  bool exactLevelCoordinates = false;
   /// Threads that share out the pyramid levels (detection, orientation, descriptors; 1 = the calling thread
   /// only). The output does not depend on it: each level is computed alone and the levels are joined in order.
   int threads = 2;
@@ -62,7 +57,6 @@ struct OrbParams {
     PSLAM_FIELD(v, cellSize, atLeast(8), "FAST grid cell size in level pixels (ORB-SLAM's W)");
     PSLAM_FIELD(v, levelBudgetByArea, anyValue, "per-level budget proportional to the level area");
     PSLAM_FIELD(v, literalCellFast, anyValue, "one cv::FAST call per cell as ORB-SLAM (reference, slower)");
-    PSLAM_FIELD(v, exactLevelCoordinates, anyValue, "level -> image coordinates by the pyramid's resize mapping");
     PSLAM_FIELD(v, threads, inClosed(1, 64), "threads sharing out the pyramid levels (the output is the same for any)");
   }
   PSLAM_PARAMS("ORB")
@@ -99,7 +93,6 @@ class OrbExtractor {
                OrbStageTimes* times = nullptr);
 
   const OrbParams& params() const { return params_; }
-  int levels() const { return params_.nLevels; }
   /// scale of level l relative to level 0 (scaleFactor^l); level-0 coordinates = level coordinates * scale.
   const std::vector<float>& scaleFactors() const { return scale_; }
   const std::vector<float>& inverseScaleFactors() const { return invScale_; }

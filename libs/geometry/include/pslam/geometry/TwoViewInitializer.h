@@ -120,8 +120,6 @@ struct TwoViewResult {
   bool twinResolved = false;
   int offPlaneGood = 0, offPlaneGoodTwin = 0;
 
-  /// T_cur_ref as an MRPT pose (maps reference-camera points into the current camera).
-  mrpt::poses::CPose3D poseCurRef() const;
 };
 
 /// One RANSAC sample set: 8 distinct match indices per iteration.

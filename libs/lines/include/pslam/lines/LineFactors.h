@@ -31,9 +31,6 @@ namespace pslam::lines {
 inline constexpr double kLineChi2 = 5.991;                ///< chi2 with 2 DoF at 95 %
 inline const double kLineHuberDelta = std::sqrt(kLineChi2);
 
-/// Residual of eq. 2.59 at camera-frame endpoints (whitened); false when an endpoint is not in front.
-bool lineResidual(const map::CameraIntrinsics& camera, const Eigen::Vector3d& observedLine, double invSigma,
-                  const Eigen::Vector3d& start_cam, const Eigen::Vector3d& end_cam, Eigen::Vector2d& residual);
 
 class LinePoseFactor : public optimize::PoseFactor {
  public:
@@ -46,7 +43,6 @@ class LinePoseFactor : public optimize::PoseFactor {
                 Eigen::MatrixXd* jacobian) const override;
   double huberDelta() const override { return kLineHuberDelta; }
   double chi2Threshold() const override { return kLineChi2; }
-  const Eigen::Vector3d& observedLine() const { return line_; }
 
  private:
   Line3 world_;
@@ -122,7 +118,6 @@ class LineBAFactor : public optimize::BAFactor {
   bool landmarkFixed() const override { return landmark_->fixed; }
   double huberDelta() const override { return kLineHuberDelta; }
   double chi2Threshold() const override { return kLineChi2; }
-  const LineReprojectionCost& cost() const { return cost_; }
 
  private:
   std::shared_ptr<LineLandmark> landmark_;

@@ -160,8 +160,6 @@ class LoopCloser {
   /// Forgets the database and the consistency state (a new map); a running global BA is waited for and dropped.
   void reset();
   ~LoopCloser();
-  int loopsClosed() const { return loopsClosed_; }
-  int loopsWithdrawn() const { return loopsWithdrawn_; }
   /// The loop edges of the loops closed so far (kept in the essential graph of later loops), saved with the map as
   /// its extension "loop_edges": u64 count, then per edge two u64 keyframe ids.
   const std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>>& loopEdges() const { return loopEdges_; }
@@ -216,7 +214,6 @@ class LoopCloser {
   map::KeyFrameId lastLoopKeyFrame_ = map::kNoKeyFrame;
   /// Loop edges of the loops closed so far (kept in the essential graph of later loops).
   std::vector<std::pair<map::KeyFrameId, map::KeyFrameId>> loopEdges_;
-  int loopsClosed_ = 0, loopsWithdrawn_ = 0;
   KeyFramesMoved keyFramesMoved_;
   bool asynchronousGlobalBa_ = false;
   std::function<void()> globalBaReady_;

@@ -125,7 +125,6 @@ class ManhattanTracker {
 
   bool initialized() const { return initialized_; }
   const Eigen::Matrix3d& R_cam_mf() const { return R_cam_mf_; }
-  void reset();
 
  private:
   std::vector<Eigen::Vector3d> subsample(const std::vector<Eigen::Vector3d>& normals);

@@ -153,7 +153,6 @@ class Map {
 
   // ---- counters for ids (serialized) ----
   KeyFrameId nextKeyFrameId() const { return nextKeyFrameId_; }
-  MapPointId nextMapPointId() const { return nextMapPointId_; }
 
   bool operator==(const Map& o) const;
   bool operator!=(const Map& o) const { return !(*this == o); }

@@ -53,7 +53,6 @@ struct MapPoint {
   }
   /// Inverse depth along the anchor's optical axis, `d` of eq. 3.1.
   double inverseDepthAlongZ() const { return inverseDepth / bearing.z(); }
-  double foundRatio() const { return visibleCount > 0 ? double(foundCount) / visibleCount : 0.0; }
   std::size_t numObservations() const { return observations.size(); }
   bool isObservedBy(KeyFrameId kf) const { return observations.count(kf) != 0; }
 };

@@ -49,13 +49,4 @@ class PointUsePolicy {
   }
 };
 
-/// ORB-SLAM*'s answer without any model: every point that is not bad is used; nothing is culled here.
-class EveryGoodPointPolicy : public PointUsePolicy {
- public:
-  std::string name() const override { return "every-good-point"; }
-  bool mayUse(const MapPoint& point) const override { return !point.bad; }
-  bool shouldCull(const MapPoint& point, KeyFrameId) const override { return point.bad; }
-  bool usesEveryGoodPoint() const override { return true; }
-};
-
 }  // namespace pslam::map

@@ -79,7 +79,5 @@ BAResult localBundleAdjustment(const BAProblem& problem, const BundleAdjustmentP
 BAResult globalBundleAdjustment(const BAProblem& problem, const BundleAdjustmentParams& params = {},
                                 const std::atomic<bool>* stop = nullptr);
 
-/// Whitened residual of one observation at the problem's current values (for tests and diagnostics).
-Eigen::Vector2d observationResidual(const BAProblem& problem, const BAObservation& observation);
 
 }  // namespace pslam::optimize

@@ -41,10 +41,6 @@ inline bool isFiniteInverseDepth(double rho) { return rho > 0.0 && std::isfinite
 MapUpdateSummary applyResult(map::Map& map, const BAProblem& problem, const BAResult& result,
                              bool eraseOutliers = true);
 
-/// Convenience for local mapping: makeLocalProblem + localBundleAdjustment + applyResult.
-/// `resultOut` (optional) receives the optimizer's report (costs, RMS, timings).
-MapUpdateSummary localBundleAdjustment(map::Map& map, map::KeyFrameId centre, const BundleAdjustmentParams& params = {},
-                                       BAResult* resultOut = nullptr, const PointFilter& usePoint = {});
 
 /// Convenience for the initial map: makeGlobalProblem + globalBundleAdjustment + applyResult. Outlier
 /// observations are reported in `resultOut` but not erased (ORB-SLAM leaves that to the initializer).

@@ -46,12 +46,4 @@ Eigen::Matrix<T, 3, 1> transformPoint(const T* pose, const Eigen::Matrix<T, 3, 1
   return q * p + t;
 }
 
-/// p_world = T_cam_world^-1 * p_cam.
-template <typename T>
-Eigen::Matrix<T, 3, 1> inverseTransformPoint(const T* pose, const Eigen::Matrix<T, 3, 1>& p) {
-  const Eigen::Map<const Eigen::Quaternion<T>> q(pose);
-  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(pose + 4);
-  return q.conjugate() * (p - t);
-}
-
 }  // namespace pslam::optimize

@@ -23,7 +23,6 @@ struct BowVector {
 struct FeatureVector {
   std::vector<std::pair<NodeId, std::vector<std::uint32_t>>> nodes;
   bool empty() const { return nodes.empty(); }
-  bool operator==(const FeatureVector& o) const { return nodes == o.nodes; }
 };
 
 }  // namespace pslam::places

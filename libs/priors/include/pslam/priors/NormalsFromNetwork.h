@@ -73,7 +73,6 @@ struct NetworkNormalParams {
   /// Strict; relative model/config paths are resolved against `baseDir` (the ini's folder) when non-empty.
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section = kSection,
                           const std::string& baseDir = "");
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section = kSection) const;
   /// Throws params::ParamError naming the key.
   void check() const;
   /// Relative model/config paths against `baseDir` (nothing when empty).

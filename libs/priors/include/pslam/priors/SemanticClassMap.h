@@ -28,8 +28,6 @@ namespace pslam::priors {
 using datasets::SemanticClass;
 inline constexpr int kNumSemanticGroups = 3;
 
-/// "static" | "dynamic" | "invalid" (case-insensitive); throws pslam::Error naming `context`.
-SemanticClass parseSemanticClass(const std::string& text, const std::string& context);
 std::string toString(SemanticClass c);
 
 struct SemanticClassMap {
@@ -48,7 +46,6 @@ struct SemanticClassMap {
   /// Strict (pslam/core/Params.h): numClasses in [1, 256], every key one of name, numClasses, unlabeled, default,
   /// class0 ... class<numClasses-1>, groups static | dynamic | invalid; errors are params::ParamError.
   void loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg, const std::string& section);
-  void saveToConfigFile(mrpt::config::CConfigFileBase& cfg, const std::string& section) const;
   /// Non-empty, sizes consistent, at most 256 classes (8-bit label images).
   void check() const;
 

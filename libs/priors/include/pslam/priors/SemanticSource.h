@@ -42,7 +42,6 @@ class NetworkSource final : public SemanticSource {
   explicit NetworkSource(const SemanticNetworkParams& params);
   cv::Mat compute(const datasets::Frame& frame) override;
   std::string description() const override;
-  SemanticNetwork& network() { return network_; }
 
  private:
   SemanticNetwork network_;

@@ -67,8 +67,6 @@ struct SurfacePoint {
 /// Reflectance in [0,1] of `material` at `p`.
 float albedoAt(const Material& material, const SurfacePoint& p);
 
-/// Smooth value noise in [0,1] on the integer lattice hashed with `seed`.
-float valueNoise(double x, double y, std::uint32_t seed);
 /// Fractal sum of `octaves` value-noise octaves starting at `baseFrequency` cycles/m, centred on 0 (range
 /// about [-1,1], std about 0.25); octaves near the Nyquist limit of the footprint fade out, so the mean is kept
 /// and nothing aliases.

@@ -54,7 +54,5 @@ std::unique_ptr<MapInitializer> makeMapInitializer(const std::string& name, cons
 void registerMapInitializer(const std::string& name, MapInitializerFactory factory);
 /// Throws the error of the factory (naming the key and the known names) when `name` is not registered.
 void requireMapInitializer(const std::string& name);
-/// Registered names, sorted.
-std::vector<std::string> mapInitializerNames();
 
 }  // namespace pslam::tracking

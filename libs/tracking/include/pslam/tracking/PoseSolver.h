@@ -77,7 +77,5 @@ std::unique_ptr<PoseSolver> makePoseSolver(const std::string& name, const optimi
 void registerPoseSolver(const std::string& name, PoseSolverFactory factory);
 /// Throws the error of the factory (naming the key and the known names) when `name` is not registered.
 void requirePoseSolver(const std::string& name);
-/// Registered names, sorted.
-std::vector<std::string> poseSolverNames();
 
 }  // namespace pslam::tracking
