@@ -15,18 +15,20 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    pslam::system::System slam(pslam::system::loadSlamParams(argv[1]));
+    pslam::system::System slam{std::filesystem::path(argv[1])};
     pslam::datasets::RawlogReader reader(argv[2]);
     pslam::datasets::Frame frame;
     while (reader.next(frame)) {
-      const pslam::system::TrackResult r = slam.track(frame);
-      std::cout << frame.index << " " << pslam::tracking::toString(r.status);
+      const pslam::system::FrameResult r = slam.track(frame);
+      std::cout << frame.index << " " << pslam::system::toString(r.state);
       if (r.pose) std::cout << " " << r.pose->asString();
       std::cout << "\n";
     }
     slam.finish();
     slam.saveMap(argc == 4 ? argv[3] : "map.slammap");
-    std::cout << "summary " << slam.summary().dump() << "\n";
+    const pslam::system::RunSummary s = slam.summary();
+    std::cout << "summary " << s.framesTracked << " of " << s.framesProcessed << " frames tracked, " << s.keyFrames
+              << " keyframes, " << s.mapPoints << " map points\n";
     return EXIT_SUCCESS;
   } catch (const std::exception& e) {
     std::cerr << "minimal_slam: error: " << e.what() << "\n";

@@ -9,6 +9,8 @@
 
 #include "pslam/datasets/Dataset2RawlogApp.h"
 #include "pslam/datasets/PrefetchingRawlogReader.h"
+#include "pslam/system/RunReport.h"
+#include "pslam/system/SlamParams.h"
 #include "pslam/system/System.h"
 #include "pslam_test/TestSupport.h"
 
@@ -36,14 +38,14 @@ TEST(ThreadedKittiData, UnpacedThreadedRunKeepsTheCameraThroughTheYoungMap) {
   std::size_t tracked = 0, lost = 0;
   datasets::Frame f;
   for (std::size_t i = 0; i < frames && reader.next(f); ++i) {
-    const system::TrackResult r = sys.track(f);
+    const system::FrameResult r = sys.track(f);
     if (r.pose) ++tracked;
-    if (r.status == tracking::FrameStatus::Lost) ++lost;
+    if (r.state == system::TrackingState::Lost) ++lost;
   }
   reader.stop();
   sys.finish();
   std::printf("[ measured ] threaded, unpaced: %zu of %zu frames tracked, %zu lost, %lld keyframes\n", tracked,
-              frames, lost, static_cast<long long>(sys.summary()["keyframes"]));
+              frames, lost, static_cast<long long>(system::toJson(sys.summary())["keyframes"]));
   EXPECT_EQ(lost, 0u);
   EXPECT_GE(tracked, frames - 5);  // all but the initialization's first frames
 }

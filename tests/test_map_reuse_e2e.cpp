@@ -24,6 +24,7 @@
 #include "pslam/eval/EvalApp.h"
 #include "pslam/map/MapIO.h"
 #include "pslam/synth/SynthApp.h"
+#include "pslam/system/SlamParams.h"
 #include "pslam/system/System.h"
 #include "pslam_test/TestSupport.h"
 

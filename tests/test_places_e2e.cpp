@@ -17,6 +17,8 @@
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/places/Vocabulary.h"
 #include "pslam/synth/SynthApp.h"
+#include "pslam/system/RunReport.h"
+#include "pslam/system/SlamParams.h"
 #include "pslam/system/System.h"
 #include "pslam_test/SameStampPairs.h"
 #include "pslam_test/TestSupport.h"
@@ -116,7 +118,7 @@ LoopRun runLoop(bool loopClosing, const std::vector<std::string>& more = {}) {
   system::System sys(paramsWith(overrides), {1, false, std::nullopt});
   datasets::RawlogReader reader(roomLoop());
   for (datasets::Frame f; reader.next(f);) sys.track(f);
-  return {sys.trajectory(), sys.summary(), sys.loops()};
+  return {system::toTrajectory(sys.trajectory()), system::toJson(sys.summary()), sys.record().loops()};
 }
 
 /// The sequential run without loop closing, once for the tests that compare with it.
@@ -144,13 +146,13 @@ TEST(PlacesE2E, ABlankFrameIsFollowedByARelocalizationWithinThreeFrames) {
   for (std::size_t i = 0; i < frames.size(); ++i) {
     datasets::Frame f = frames[i];
     if (i == kBlank) f.image = cv::Mat::zeros(f.image.size(), f.image.type());
-    const system::TrackResult r = sys.track(f);
+    const system::FrameResult r = sys.track(f);
     if (i == kBlank) {
       ASSERT_TRUE(sys.initialized()) << "the room must be mapped before the blank frame";
-      lostAtBlank = r.status == tracking::FrameStatus::Lost;
+      lostAtBlank = r.state == system::TrackingState::Lost;
     }
-    if (i > kBlank && relocalizedAt == 0 && r.status == tracking::FrameStatus::Relocalized) relocalizedAt = i;
-    if (relocalizedAt > 0 && i > relocalizedAt && r.status == tracking::FrameStatus::Lost) ++lostAfter;
+    if (i > kBlank && relocalizedAt == 0 && r.state == system::TrackingState::Relocalized) relocalizedAt = i;
+    if (relocalizedAt > 0 && i > relocalizedAt && r.state == system::TrackingState::Lost) ++lostAfter;
   }
   EXPECT_TRUE(lostAtBlank);
   ASSERT_GT(relocalizedAt, kBlank) << "never relocalized after the blank frame";
@@ -168,8 +170,8 @@ TEST(PlacesE2E, WithoutAVocabularyTheSameBlankFrameAlsoRelocalizesByExhaustiveMa
   for (std::size_t i = 0; i < frames.size(); ++i) {
     datasets::Frame f = frames[i];
     if (i == 40) f.image = cv::Mat::zeros(f.image.size(), f.image.type());
-    const system::TrackResult r = sys.track(f);
-    if (i > 40 && relocalizedAt == 0 && r.status == tracking::FrameStatus::Relocalized) relocalizedAt = i;
+    const system::FrameResult r = sys.track(f);
+    if (i > 40 && relocalizedAt == 0 && r.state == system::TrackingState::Relocalized) relocalizedAt = i;
   }
   EXPECT_GT(relocalizedAt, 40u);
   EXPECT_LE(relocalizedAt, 43u);
@@ -178,7 +180,7 @@ TEST(PlacesE2E, WithoutAVocabularyTheSameBlankFrameAlsoRelocalizesByExhaustiveMa
 namespace {
 struct WithdrawalRun {
   std::size_t relocalizedAt = 0;  ///< the first relocalization after the blank frame (0: none)
-  std::size_t retractedAtNext = 0;  ///< TrackResult::retractedFrames of the frame after it
+  std::size_t retractedAtNext = 0;  ///< FrameResult::retractedFrames of the frame after it
   Trajectory trajectory;
   nlohmann::json summary;
 };
@@ -195,12 +197,12 @@ WithdrawalRun loseTrackingRightAfterARelocalization(int checkFrames) {
     datasets::Frame f = frames[i];
     if (i == 40 || (run.relocalizedAt > 0 && i == run.relocalizedAt + 1))
       f.image = cv::Mat::zeros(f.image.size(), f.image.type());
-    const system::TrackResult r = sys.track(f);
-    if (i > 40 && run.relocalizedAt == 0 && r.status == tracking::FrameStatus::Relocalized) run.relocalizedAt = i;
+    const system::FrameResult r = sys.track(f);
+    if (i > 40 && run.relocalizedAt == 0 && r.state == system::TrackingState::Relocalized) run.relocalizedAt = i;
     if (run.relocalizedAt > 0 && i == run.relocalizedAt + 1) run.retractedAtNext = r.retractedFrames;
   }
-  run.trajectory = sys.trajectory();
-  run.summary = sys.summary();
+  run.trajectory = system::toTrajectory(sys.trajectory());
+  run.summary = system::toJson(sys.summary());
   return run;
 }
 
@@ -343,7 +345,7 @@ TEST(PlacesE2E, ThreadedLoopClosingRunsTheGlobalBAOnItsOwnThreadAndStillRemovesT
     sys.waitForLocalMapping();
   }
   sys.finish();
-  const nlohmann::json report = sys.report();
+  const nlohmann::json report = system::runReport(sys);
   ASSERT_GE(report["summary"].value("loops_closed", 0), 1) << report["loops"].dump();
   for (const auto& l : report["loops"])
     if (l.value("closed", false)) {
@@ -353,7 +355,7 @@ TEST(PlacesE2E, ThreadedLoopClosingRunsTheGlobalBAOnItsOwnThreadAndStillRemovesT
   EXPECT_GT(report["global_ba"][0].value("keyframes_set", 0), 10);
   EXPECT_GT(report["global_ba"][0].value("points_set", 0), 100);
   const auto [gOpen, eOpen] = aligned(open.trajectory);
-  const auto [g, e] = aligned(sys.trajectory());
+  const auto [g, e] = aligned(system::toTrajectory(sys.trajectory()));
   eval::RpeOptions loop;
   loop.delta = 470;
   loop.allPairs = true;

@@ -25,9 +25,12 @@
 #include "pslam/eval/Metrics.h"
 #include "pslam/synth/SynthApp.h"
 #include "pslam/apps/SlamRunApp.h"
+#include "pslam/system/RunReport.h"
+#include "pslam/system/SlamParams.h"
 #include "pslam/system/System.h"
 #include "pslam/tracking/MapInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
+#include "pslam_test/RoomClip.h"
 #include "pslam_test/SameStampPairs.h"
 #include "pslam_test/Sim3Ate.h"
 #include "pslam_test/TestSupport.h"
@@ -48,34 +51,16 @@ const fs::path& tempRoot() {
   return root.path;
 }
 
-// Renders the first seconds of the room scenario once (translation first: parallax for initialization) at
-// 640x480 (at 320x240 too few level-0 corners match for the two-view initialization).
+// The room clip, rendered once.
 const fs::path& roomRawlog() {
-  static const fs::path rawlog = [] {
-    synth::SynthOptions o;
-    o.scenario = "room";
-    o.frames = kFrames;
-    o.seed = 3;
-    o.noiseSigma = 1.0;
-    o.outDir = tempRoot() / "synth";
-    o.progress = false;
-    return synth::SynthApp(o).run().rawlog;
-  }();
+  static const fs::path rawlog = test_support::renderRoomClip(tempRoot() / "synth", kFrames);
   return rawlog;
 }
 
 apps::SlamRunSummary runSlam(const fs::path& out, std::uint32_t seed = 1, bool threaded = false,
-                               const fs::path& rawlog = roomRawlog(), const fs::path& config = kConfig,
-                               const std::vector<std::string>& overrides = {}) {
-  apps::SlamRunOptions o;
-  o.overrides = overrides;
-  o.config = config;
-  o.rawlog = rawlog;
-  o.outDir = out;
-  o.seed = seed;
-  o.threaded = threaded;
-  o.progress = false;
-  return apps::SlamRunApp(o).run();
+                             const fs::path& rawlog = roomRawlog(), const fs::path& config = kConfig,
+                             const std::vector<std::string>& overrides = {}) {
+  return test_support::runSlamRun(out, rawlog, seed, threaded, config, overrides);
 }
 
 std::string readText(const fs::path& p) {
@@ -353,14 +338,14 @@ TEST(SlamE2E, RelocalizesAfterAnUntrackableFrame) {
       blank.image = cv::Mat(f.image.size(), f.image.type(), cv::Scalar::all(128));
       const auto r = slam.track(blank);
       ASSERT_GE(slam.mapSnapshot().numKeyFrames(), 6u) << "the map should be past the reset threshold";
-      EXPECT_EQ(r.status, tracking::FrameStatus::Lost);
+      EXPECT_EQ(r.state, system::TrackingState::Lost);
       EXPECT_FALSE(r.pose.has_value());
       lostSeen = true;
     }
     const auto r = slam.track(f);
     if (lostSeen) {
       ++framesAfterLoss;
-      if (r.status == tracking::FrameStatus::Relocalized) {
+      if (r.state == system::TrackingState::Relocalized) {
         relocalized = true;
         break;
       }
@@ -397,11 +382,11 @@ TEST(SlamE2E, ThreadedModeSurvivesMapResetsWhileMapping) {
     }
     slam.finish();
     EXPECT_GE(resets, 2u);
-    const nlohmann::json summary = slam.summary();
+    const nlohmann::json summary = system::toJson(slam.summary());
     EXPECT_EQ(summary["resets"].get<std::size_t>(), resets);
     const map::Map m = slam.mapSnapshot();
     EXPECT_NO_THROW(m.checkInvariants("after the threaded run"));
-    for (const auto& p : slam.trajectory()) EXPECT_TRUE(p.position.allFinite());
+    for (const auto& p : system::toTrajectory(slam.trajectory())) EXPECT_TRUE(p.position.allFinite());
   }
 }
 
@@ -598,173 +583,4 @@ TEST(SlamE2E, CliPrintsOneErrorLineAndExitsNonZero) {
   const std::string text = readText(err);
   EXPECT_EQ(text.rfind("slam-run: error: ", 0), 0u) << text;
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1);
-}
-
-// ---------------------------------------------------------------------------------------- the System façade
-
-namespace {
-system::System makeSystem(const std::vector<std::string>& overrides = {}, std::uint32_t seed = 1) {
-  system::SystemOptions options;
-  options.seed = seed;
-  return system::System(system::loadSlamParams(kConfig.string(), overrides), options);
-}
-}  // namespace
-
-TEST(SystemFacade, PosesAreCPose3DAndTheTrajectoryMatchesSlamRun) {
-  system::System slam = makeSystem();
-  datasets::RawlogReader reader(roomRawlog());
-  datasets::Frame f;
-  std::size_t withPose = 0;
-  mrpt::poses::CPose3D last;
-  while (reader.next(f)) {
-    const system::TrackResult r = slam.track(f);
-    EXPECT_EQ(r.pose.has_value(), r.status == tracking::FrameStatus::Tracking ||
-                                      r.status == tracking::FrameStatus::Relocalized);
-    if (r.pose) {
-      ++withPose;
-      last = *r.pose;
-    }
-  }
-  slam.finish();
-  const Trajectory traj = slam.trajectory();
-  // Every frame with a pose, plus the initialization's reference frame that gets one retroactively.
-  EXPECT_EQ(traj.size(), withPose + 1);
-  EXPECT_EQ(slam.summary()["frames_tracked"].get<std::size_t>(), withPose);
-  // The last frame's pose as tracked and as resolved against its (refined) reference keyframe agree closely.
-  const mrpt::poses::CPose3D resolved = traj.back().toCPose3D();
-  EXPECT_LT((resolved.asVectorVal() - last.asVectorVal()).norm(), 0.05);
-  // slam-run writes exactly this trajectory (same seed, same frames).
-  const fs::path out = tempRoot() / "facade_vs_app";
-  runSlam(out, 1);
-  std::istringstream app(readText(out / "trajectory.txt"));
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(app, line);)
-    if (!line.empty() && line[0] != '#') lines.push_back(line);
-  ASSERT_EQ(lines.size(), traj.size());
-  for (std::size_t i = 0; i < lines.size(); ++i) EXPECT_EQ(lines[i], formatTumLine(traj[i])) << i;
-  EXPECT_EQ(slam.keyFrameTrajectory().size(), slam.mapSnapshot().numKeyFrames());
-}
-
-TEST(SystemFacade, SavedMapIsLoadedAndLocalizationLeavesItUnchanged) {
-  const fs::path mapFile = tempRoot() / "facade_map.slammap";
-  {
-    system::System slam = makeSystem();
-    datasets::RawlogReader reader(roomRawlog());
-    datasets::Frame f;
-    while (reader.next(f) && f.index < 40) slam.track(f);
-    ASSERT_TRUE(slam.initialized());
-    slam.saveMap(mapFile);
-  }
-  system::System localizer = makeSystem();
-  localizer.setMappingEnabled(false);
-  localizer.loadMap(mapFile);
-  EXPECT_TRUE(localizer.initialized());
-  const map::Map before = localizer.mapSnapshot();
-  datasets::RawlogReader reader(roomRawlog());
-  datasets::Frame f;
-  int frames = 0, located = 0, firstLocated = -1;
-  while (reader.next(f)) {
-    if (f.index < 30) continue;  // frames 30..59: half inside the mapped part, half beyond it
-    const system::TrackResult r = localizer.track(f);
-    EXPECT_FALSE(r.keyFrame);
-    ++frames;
-    if (r.pose) {
-      ++located;
-      if (firstLocated < 0) firstLocated = frames;
-    }
-  }
-  EXPECT_EQ(firstLocated, 1) << "relocalization against the loaded map on the first frame";
-  EXPECT_GE(located, frames * 8 / 10) << located << " of " << frames;
-  EXPECT_TRUE(before == localizer.mapSnapshot()) << "localization changed the map";
-  // Loading into a run whose camera differs is refused with the file named.
-  system::SystemOptions other;
-  other.camera = geometry::PinholeCamera(400, 400, 320, 240, 640, 480);
-  system::System wrongCamera(system::loadSlamParams(kConfig.string()), other);
-  const std::string err = errorOf([&] { wrongCamera.loadMap(mapFile); });
-  EXPECT_NE(err.find("facade_map.slammap"), std::string::npos) << err;
-  EXPECT_NE(err.find("camera"), std::string::npos) << err;
-  EXPECT_NE(errorOf([&] { localizer.loadMap(tempRoot() / "missing.slammap"); }).find("missing.slammap"),
-            std::string::npos);
-}
-
-namespace {
-// Counts the calls reaching the solver / initializer chosen by name in the ini, and delegates to the shipped ones.
-std::atomic<int> countingSolverCalls{0}, countingInitializerCalls{0};
-struct CountingSolver : tracking::PoseSolver {
-  tracking::FullPoseSolver inner;
-  explicit CountingSolver(const optimize::PoseOptimizationParams& p) : inner(p) {}
-  std::string name() const override { return "counting"; }
-  optimize::PoseOptimizationResult solve(const tracking::PoseSolveRequest& r) const override {
-    ++countingSolverCalls;
-    return inner.solve(r);
-  }
-};
-struct CountingInitializer : tracking::MapInitializer {
-  std::unique_ptr<tracking::MapInitializer> inner;
-  std::string name() const override { return "counting"; }
-  tracking::InitializationOutcome process(tracking::Frame& f, map::Map& m, std::mt19937& rng,
-                                          tracking::Frame* ref) override {
-    ++countingInitializerCalls;
-    return inner->process(f, m, rng, ref);
-  }
-  void reset() override { inner->reset(); }
-  bool hasReference() const override { return inner->hasReference(); }
-};
-}  // namespace
-
-TEST(SystemFacade, PoseSolverAndInitializerAreChosenByConfig) {
-  tracking::registerPoseSolver("counting", [](const optimize::PoseOptimizationParams& p) {
-    return std::make_unique<CountingSolver>(p);
-  });
-  tracking::registerMapInitializer("counting", [](const geometry::PinholeCamera& c, const tracking::InitializerParams& p,
-                                                  const optimize::BundleAdjustmentParams& ba) {
-    auto init = std::make_unique<CountingInitializer>();
-    init->inner = tracking::makeMapInitializer("twoView", c, p, ba);
-    return init;
-  });
-  // The shipped solver and initializer, reached through the same factories, give the reference run.
-  system::System reference = makeSystem();
-  system::System swapped = makeSystem({"System.poseSolver=counting", "System.initializer=counting"});
-  datasets::RawlogReader reader(roomRawlog());
-  datasets::Frame f;
-  while (reader.next(f) && f.index < 30) {
-    const auto a = reference.track(f);
-    const auto b = swapped.track(f);
-    EXPECT_EQ(a.status, b.status) << f.index;
-  }
-  EXPECT_GT(countingSolverCalls.load(), 10);
-  EXPECT_GT(countingInitializerCalls.load(), 0);
-  EXPECT_EQ(swapped.report()["pose_solver"], "counting");
-  // Same computations behind the wrappers: the same trajectory bytes.
-  const Trajectory ta = reference.trajectory(), tb = swapped.trajectory();
-  ASSERT_EQ(ta.size(), tb.size());
-  for (std::size_t i = 0; i < ta.size(); ++i) EXPECT_EQ(formatTumLine(ta[i]), formatTumLine(tb[i]));
-  // An unknown name fails when the system is made, naming the key and the choices.
-  const std::string err = errorOf([&] { makeSystem({"System.poseSolver=nope"}); });
-  EXPECT_NE(err.find("[System] poseSolver = nope"), std::string::npos) << err;
-  EXPECT_NE(err.find("full6dof"), std::string::npos) << err;
-}
-
-TEST(SystemFacade, OverridesApplyAndMalformedOnesAreRejected) {
-  const system::SlamParams p = system::loadSlamParams(kConfig.string(), {"ORB.nFeatures=777", "Tracking.minPoseInliers=12"});
-  EXPECT_EQ(p.orb.nFeatures, 777);
-  EXPECT_EQ(p.tracking.minPoseInliers, 12);
-  EXPECT_NE(errorOf([&] { system::loadSlamParams(kConfig.string(), {"ORBnFeatures=7"}); }).find("ORBnFeatures=7"),
-            std::string::npos);
-  EXPECT_NE(errorOf([&] { system::loadSlamParams(kConfig.string(), {"ORB.nFeatures"}); }).find("ORB.nFeatures"),
-            std::string::npos);
-  EXPECT_NE(errorOf([&] { system::loadSlamParams(kConfig.string(), {"Tracking.minPoseInliers=1"}); }).find("minPoseInliers"),
-            std::string::npos);
-  // slam-run keeps the overrides and their effect in the report.
-  apps::SlamRunOptions o;
-  o.config = kConfig;
-  o.overrides = {"ORB.nFeatures=900"};
-  o.rawlog = roomRawlog();
-  o.outDir = tempRoot() / "overrides";
-  o.last = 3;
-  o.progress = false;
-  apps::SlamRunApp(o).run();
-  const auto report = nlohmann::json::parse(readText(o.outDir / "report.json"));
-  EXPECT_EQ(report["overrides"][0], "ORB.nFeatures=900");
-  EXPECT_NE(report["config"].get<std::string>().find("900"), std::string::npos);
 }

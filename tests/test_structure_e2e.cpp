@@ -13,6 +13,8 @@
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/priors/NormalPriorsApp.h"
 #include "pslam/synth/SynthApp.h"
+#include "pslam/system/RunReport.h"
+#include "pslam/system/SlamParams.h"
 #include "pslam/system/System.h"
 #include "pslam_test/Sim3Ate.h"
 #include "pslam_test/TestSupport.h"
@@ -46,7 +48,7 @@ fs::path render(const std::string& scenario, int frames, std::uint32_t seed, boo
 }
 
 struct SlamRun {
-  std::vector<system::TrackResult> frames;
+  std::vector<system::FrameResult> frames;
   Trajectory trajectory;
   nlohmann::json summary;
 };
@@ -63,8 +65,8 @@ SlamRun runSystem(const fs::path& rawlog, const std::string& config, const std::
     if (f.index >= dropFrom && f.index < dropTo) f.normals = cv::Mat();
     run.frames.push_back(slam.track(f));
   }
-  run.trajectory = slam.trajectory();
-  run.summary = slam.summary();
+  run.trajectory = system::toTrajectory(slam.trajectory());
+  run.summary = system::toJson(slam.summary());
   return run;
 }
 
@@ -84,7 +86,7 @@ TEST(StructureE2E, LowTextureClipInitializesAndTracksOnlyWithTheManhattanPath) {
   ASSERT_TRUE(structure.summary["initialized"].get<bool>());
   EXPECT_LE(structure.summary["initialized_at_frame"].get<long long>(), 15);
   int manhattan = 0;
-  for (const auto& r : structure.frames) manhattan += r.report.manhattan.mode == "manhattan" && r.pose ? 1 : 0;
+  for (const auto& r : structure.frames) manhattan += r.manhattanMode == "manhattan" && r.pose ? 1 : 0;
   EXPECT_GE(structure.summary["frames_tracked"].get<std::size_t>(), 30u);
   EXPECT_GE(manhattan, 20) << "the Manhattan rotation should carry most frames";
   EXPECT_LT(ateSim3(rawlog.parent_path() / "lowtexture_groundtruth.txt", structure.trajectory), 0.05);
@@ -142,11 +144,11 @@ TEST(StructureE2E, FallbackWhereNormalsVanishThenTheManhattanPathAgain) {
   for (std::size_t i = 30; i < 40; ++i) {
     const auto& r = run.frames[i];
     EXPECT_TRUE(r.pose.has_value()) << "frame " << i;
-    EXPECT_EQ(r.report.manhattan.mode, "fallback") << "frame " << i;
-    EXPECT_FALSE(r.report.manhattan.normals);
+    EXPECT_EQ(r.manhattanMode, "fallback") << "frame " << i;
+    EXPECT_FALSE(r.normals);
   }
   int back = 0;
-  for (std::size_t i = 42; i < run.frames.size(); ++i) back += run.frames[i].report.manhattan.mode == "manhattan" ? 1 : 0;
+  for (std::size_t i = 42; i < run.frames.size(); ++i) back += run.frames[i].manhattanMode == "manhattan" ? 1 : 0;
   EXPECT_GE(back, static_cast<int>(run.frames.size() - 42) * 8 / 10) << "the Manhattan path was not taken again";
   EXPECT_EQ(run.summary["frames_lost"].get<std::size_t>(), 0u);
   EXPECT_LT(ateSim3(rawlog.parent_path() / "corridor_groundtruth.txt", run.trajectory), 0.05);

@@ -10,6 +10,7 @@
 #include "pslam/core/Params.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/datasets/Rawlog.h"
+#include "pslam/system/SlamParams.h"
 #include "pslam/system/System.h"
 
 int main(int argc, char** argv) {

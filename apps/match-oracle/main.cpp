@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--align", o.align,
                "also align each matchable second keypoint to the first keypoint's patch (warp from the true poses "
-               "and depth; [LocalMapping] refinement.* of the config) and report where the aligned positions land");
+               "and depth; features::alignPatch's default parameters) and report where the aligned positions land");
   app.add_option("--json", json, "write the options, per-pair counts and per-step summary as JSON");
   app.add_option("--plot", plot, "write a PNG of the counts of neighbouring frames (k, k+1)");
   app.add_flag("-q,--quiet", [&o](int64_t) { o.progress = false; }, "no progress on stderr");

@@ -16,7 +16,7 @@ int main(int argc, char** argv) {
   cli.add_option("--config", config, "MRPT ini file (config/slam/*.ini)")->required();
   cli.add_option("--set", o.overrides,
                  "override one ini value, Section.key=value (repeatable), e.g. --set PointModel.model=probabilistic");
-  cli.add_option("--rawlog", rawlog, "input rawlog (DESIGN.md §3)")->required();
+  cli.add_option("--rawlog", rawlog, "input rawlog (doc/architecture.md, Data contracts)")->required();
   cli.add_option("--out", out, "output folder")->required();
   using pslam::params::cliCheck;
   cli.add_option("--seed", o.seed, "seed of all random processes (default 0)")->check(cliCheck<decltype(o.seed)>());

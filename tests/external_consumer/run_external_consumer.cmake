@@ -2,7 +2,8 @@
 # prefix, configures and builds tests/external_consumer (examples/minimal_slam.cpp) against it
 # (find_package(priorslam CONFIG)), renders a short synthetic rawlog with the *installed* slam-synth and runs
 # minimal_slam on it with the installed config/slam/synthetic.ini. Checks: exit code 0, one output line per
-# frame, a `summary` line, the map file.
+# frame, a `summary` line, the map file. Then runs the installed slam-run with the installed config from another
+# folder (the config names the installed default vocabulary relative to itself): a trajectory and a map.
 #
 # Variables (-D): BUILD_DIR, SOURCE_DIR, WORK_DIR; optional CONSUMER_SOURCE (examples/minimal_slam.cpp),
 # FRAMES (40), GENERATOR, COMPILER_LAUNCHER, CXX_COMPILER, KEEP (keep WORK_DIR).
@@ -18,17 +19,7 @@ if(NOT DEFINED FRAMES)
   set(FRAMES 40)
 endif()
 
-function(run what)
-  string(TIMESTAMP t0 "%s")
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  string(TIMESTAMP t1 "%s")
-  math(EXPR dt "${t1} - ${t0}")
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "${what} failed (exit ${rc}):\n  ${ARGN}\n--- stdout\n${out}\n--- stderr\n${err}")
-  endif()
-  message(STATUS "${what}: ok (${dt} s)")
-  set(RUN_OUTPUT "${out}" PARENT_SCOPE)
-endfunction()
+include("${CMAKE_CURRENT_LIST_DIR}/../support/run_step.cmake")
 
 set(prefix "${WORK_DIR}/prefix")
 set(build "${WORK_DIR}/consumer-build")
@@ -92,6 +83,27 @@ if(NOT EXISTS "${map}")
 endif()
 file(SIZE "${map}" map_size)
 message(STATUS "${n} frame lines, map ${map_size} bytes, ${summary}")
+
+# 5. The installed slam-run with the installed config, started from a folder that is neither the source tree nor the
+# prefix: the paths in the config (the default vocabulary, ../places/) are relative to the config file.
+set(installed_config "${prefix}/share/priorslam/config/slam/synthetic.ini")
+file(STRINGS "${installed_config}" vocabulary_line REGEX "^vocabulary *=")
+if(vocabulary_line)
+  string(REGEX REPLACE "^vocabulary *= *" "" vocabulary "${vocabulary_line}")
+  if(NOT EXISTS "${prefix}/share/priorslam/config/slam/${vocabulary}")
+    message(FATAL_ERROR "the installed config names ${vocabulary}, which was not installed")
+  endif()
+endif()
+file(MAKE_DIRECTORY "${WORK_DIR}/elsewhere")
+set(RUN_IN "${WORK_DIR}/elsewhere")
+run("installed slam-run from another folder" "${prefix}/bin/slam-run" --config "${installed_config}"
+    --rawlog "${data}/room.rawlog" --out run -q)
+unset(RUN_IN)
+foreach(f trajectory.txt map.slammap report.json)
+  if(NOT EXISTS "${WORK_DIR}/elsewhere/run/${f}")
+    message(FATAL_ERROR "the installed slam-run wrote no run/${f}")
+  endif()
+endforeach()
 
 if(NOT KEEP)
   file(REMOVE_RECURSE "${WORK_DIR}")

@@ -22,6 +22,7 @@
 #include "pslam/features/Matching.h"
 #include "pslam/features/OrbExtractor.h"
 #include "pslam/features/PatchAlignment.h"
+#include "pslam/features/PatchAlignment.h"
 #include "pslam/system/SlamParams.h"
 
 namespace fs = std::filesystem;
@@ -94,7 +95,7 @@ PairCounts countPair(const OracleFrame& a, const OracleFrame& b, const mrpt::img
     offsets[level].dy.push_back(static_cast<float>((q.y - v) / scales[level]));
     if (o.align) {
       // The second keypoint aligned to the first one's patch, with the warp the true geometry predicts for a
-      // fronto-parallel patch at the first keypoint's depth (what ObservationRefiner does with estimates).
+      // fronto-parallel patch at the first keypoint's depth (features::alignPatch with its default parameters).
       const cv::KeyPoint& kb = b.keypoints[static_cast<std::size_t>(inside.index)];
       const int la = a.keypoints[i].octave, lb = kb.octave;
       const Eigen::Vector2d ca = a.pyramid->toLevel(Eigen::Vector2d(p.x, p.y), la);
@@ -204,7 +205,7 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
     for (std::size_t back = 0; back < window.size(); ++back) {
       const OracleFrame& first = window[window.size() - 1 - back];
       PairCounts c = countPair(first, f, camera, extractor.scaleFactors(), o, result.offsets,
-                               slam.mapping.refinement.alignment);
+                               features::PatchAlignmentParams{});
       c.step = static_cast<int>(back) + 1;
       result.pairs.push_back(c);
     }
@@ -297,7 +298,7 @@ MatchOracleResult runMatchOracle(const MatchOracleOptions& o) {
     text += line;
   }
   if (o.align) {
-    text += "aligned to the first keypoint's patch ([LocalMapping] refinement.*): accepted second keypoints, same "
+    text += "aligned to the first keypoint's patch (features::alignPatch): accepted second keypoints, same "
             "transfer\n";
     std::snprintf(line, sizeof line, "%5s %8s %9s %8s %8s %8s %10s %9s\n", "level", "tried", "accepted", "mean_x",
                   "mean_y", "rms", "median|e|", "p90|e|");

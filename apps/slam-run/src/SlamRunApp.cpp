@@ -17,7 +17,10 @@
 #include "pslam/datasets/Rawlog.h"
 #include "pslam/core/AtomicFile.h"
 #include "pslam/map/MapIO.h"
+#include "pslam/system/RunReport.h"
+#include "pslam/system/SlamParams.h"
 #include "pslam/system/System.h"
+#include "pslam/tracking/Frame.h"
 
 namespace pslam::apps {
 
@@ -256,7 +259,7 @@ SlamRunSummary SlamRunApp::run() {
         sum.maxLatenessSeconds = std::max(sum.maxLatenessSeconds, std::chrono::duration<double>(now - due).count());
       }
     }
-    system::TrackResult r;
+    system::FrameResult r;
     try {
       r = slam->track(input);
     } catch (const Error& e) {
@@ -268,9 +271,8 @@ SlamRunSummary SlamRunApp::run() {
     localized.push_back(r.pose.has_value());
     localizedIndex.push_back(input.index);
     ++sum.framesProcessed;
-    progress.update(sum.framesProcessed, std::string(tracking::toString(r.status)) + " kf " +
-                                             std::to_string(r.report.keyFrames) + " pts " +
-                                             std::to_string(r.report.mapPoints));
+    progress.update(sum.framesProcessed, std::string(system::toString(r.state)) + " kf " +
+                                             std::to_string(r.keyFrames) + " pts " + std::to_string(r.mapPoints));
   }
   reader.stop();  // before the outputs: saving the map serializes with MRPT too
   for (std::size_t k = 0; k < localized.size(); ++k) {
@@ -291,17 +293,20 @@ SlamRunSummary SlamRunApp::run() {
   sum.framesCpuSeconds = system::processCpuSeconds() - framesCpu0;
 
   // ---- outputs
-  const nlohmann::json counts = slamRef.summary();
-  sum.framesTracked = counts["frames_tracked"];
-  sum.framesLost = counts["frames_lost"];
-  sum.relocalizations = counts["relocalizations"];
+  const system::RunSummary runSummary = slamRef.summary();
+  const nlohmann::json counts = system::toJson(runSummary);
+  sum.framesTracked = runSummary.framesTracked;
+  sum.framesLost = runSummary.framesLost;
+  sum.relocalizations = runSummary.relocalizations;
   sum.initializedAtFrame = counts["initialized_at_frame"];
-  sum.keyFrames = counts["keyframes"];
-  sum.mapPoints = counts["map_points"];
-  sum.resets = counts["resets"];
+  sum.keyFrames = runSummary.keyFrames;
+  sum.mapPoints = runSummary.mapPoints;
+  sum.resets = runSummary.resets;
 
-  writeTumTrajectory(trajectoryOut.tempPath(), slamRef.trajectory(), "slam-run: every tracked frame, T_world_cam");
-  writeTumTrajectory(keyFramesOut.tempPath(), slamRef.keyFrameTrajectory(), "slam-run: keyframes, T_world_cam");
+  writeTumTrajectory(trajectoryOut.tempPath(), system::toTrajectory(slamRef.trajectory()),
+                     "slam-run: every tracked frame, T_world_cam");
+  writeTumTrajectory(keyFramesOut.tempPath(), system::toTrajectory(slamRef.keyFrameTrajectory()),
+                     "slam-run: keyframes, T_world_cam");
   // One copy of the map serves both outputs (System::saveMap would take another).
   map::Map finalMap = slamRef.mapSnapshot();
   writeMapPointDepths(finalMap, depthsOut);
@@ -311,7 +316,7 @@ SlamRunSummary SlamRunApp::run() {
   sum.wallSeconds = std::chrono::duration<double>(outputsWall1 - wall0).count();
   sum.cpuSeconds = system::processCpuSeconds() - cpu0;
 
-  nlohmann::json report = slamRef.report();
+  nlohmann::json report = system::runReport(slamRef);
   report["tool"] = "slam-run";
   report["map_in"] = options_.mapIn.string();
   report["localization"] = options_.localization;

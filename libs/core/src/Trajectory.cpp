@@ -21,20 +21,25 @@ Eigen::Isometry3d StampedPose::T_world_cam() const {
   return T;
 }
 
-mrpt::poses::CPose3D StampedPose::toCPose3D() const {
-  const Eigen::Isometry3d T = T_world_cam();
+mrpt::poses::CPose3D toCPose3D(const Eigen::Isometry3d& T) {
   mrpt::math::CMatrixDouble44 M;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) M(r, c) = T.matrix()(r, c);
   return mrpt::poses::CPose3D(M);
 }
 
-StampedPose StampedPose::fromCPose3D(double t, const mrpt::poses::CPose3D& T_world_cam) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  const auto M = T_world_cam.getHomogeneousMatrixVal<mrpt::math::CMatrixDouble44>();
+Eigen::Isometry3d toIsometry(const mrpt::poses::CPose3D& T) {
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  const auto M = T.getHomogeneousMatrixVal<mrpt::math::CMatrixDouble44>();
   for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = M(r, c);
-  return StampedPose(t, T);
+    for (int c = 0; c < 4; ++c) out.matrix()(r, c) = M(r, c);
+  return out;
+}
+
+mrpt::poses::CPose3D StampedPose::toCPose3D() const { return pslam::toCPose3D(T_world_cam()); }
+
+StampedPose StampedPose::fromCPose3D(double t, const mrpt::poses::CPose3D& T_world_cam) {
+  return StampedPose(t, toIsometry(T_world_cam));
 }
 
 std::string stampOrderError(const std::filesystem::path& path, int line, double stamp, int previousLine) {

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "DirectHelpers.h"
 #include "pslam/core/Error.h"
 #include "pslam/core/StageTimer.h"
 #include "pslam/core/PixelCentres.h"
@@ -22,54 +23,8 @@ namespace pslam::direct {
 
 PSLAM_DEFINE_PARAMS(DirectFeaturesParams)
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-/// Indices 0..n-1 thinned to at most `cap`, evenly (deterministic).
-std::vector<std::size_t> evenSubset(std::size_t n, std::size_t cap) {
-  std::vector<std::size_t> out;
-  if (n <= cap) {
-    out.resize(n);
-    for (std::size_t i = 0; i < n; ++i) out[i] = i;
-    return out;
-  }
-  out.reserve(cap);
-  for (std::size_t k = 0; k < cap; ++k) out.push_back(k * n / cap);
-  return out;
-}
-
-/// Median (upper middle element) of a non-empty vector, which is reordered.
-double medianOf(std::vector<double>& v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
-/// Median and median absolute deviation of `v` (reordered).
-std::pair<double, double> medianAndMad(std::vector<double>& v) {
-  const double med = medianOf(v);
-  for (double& x : v) x = std::abs(x - med);
-  return {med, medianOf(v)};
-}
-
-/// Sum over the pattern of the squared difference of the exposure-normalized intensities (eq. 3.5): host
-/// intensities (level 0) against the target image sampled around `pixel`.
-double patternSsdAt(const optimize::DirectLandmark& point, const optimize::AffineBrightness& hostAffine,
-                    const cv::Mat& targetLevel0, const Eigen::Vector2d& pixel, const optimize::AffineBrightness& targetAffine) {
-  if (!point.usableAt(0)) return std::numeric_limits<double>::infinity();
-  double ssd = 0.0;
-  for (int k = 0; k < optimize::kPatternSize; ++k) {
-    const double x = pixel.x() + optimize::kDirectPattern[static_cast<std::size_t>(k)][0];
-    const double y = pixel.y() + optimize::kDirectPattern[static_cast<std::size_t>(k)][1];
-    if (!optimize::insideBilinear(targetLevel0, x, y)) return std::numeric_limits<double>::infinity();
-    const double host = std::exp(-hostAffine.a) * (point.hostIntensities[0][static_cast<std::size_t>(k)] - hostAffine.b);
-    const double target = std::exp(-targetAffine.a) * (optimize::sampleBilinear(targetLevel0, x, y) - targetAffine.b);
-    ssd += (host - target) * (host - target);
-  }
-  return ssd;
-}
-
-}  // namespace
+using detail::evenSubset;
+using detail::patternSsdAt;
 
 DirectFrontEnd::DirectFrontEnd(const DirectFeaturesParams& params, const landmarks::PointModelParams& pointModel,
                                const geometry::PinholeCamera& camera, double depthPixelNoise)
@@ -145,7 +100,7 @@ std::shared_ptr<optimize::ImagePyramid> DirectFrontEnd::hostPyramid(DirectHost& 
   return host.pyramid;
 }
 
-void DirectFrontEnd::prepareFrame(const tracking::Frame& frame) {
+void DirectFrontEnd::prepareTrackedFrame(const tracking::Frame& frame) {
   if (framePyramid_ && frame.index == frameIndex_ && frame.timestamp == frameTimestamp_) return;
   require(!frame.grey.empty() && frame.grey.type() == CV_8UC1, "DirectFrontEnd",
           "frame " + std::to_string(frame.index) + " has no grey image");
@@ -165,82 +120,8 @@ std::vector<map::KeyFrameId> DirectFrontEnd::trackingHosts(const map::Map& map, 
   return out;
 }
 
-std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>> DirectFrontEnd::poseFactors(
-    const tracking::Frame& frame, const map::Map& map, map::KeyFrameId reference) {
-  lastFactors_.clear();
-  lastInView_.clear();
-  lastActive_ = lastInactive_ = lastReferenceInView_ = lastReferenceActive_ = 0;
-  if (hosts_.empty()) return {};
-  prepareFrame(frame);
-  const cv::Mat& level0 = framePyramid_->level(0);
-  const double margin = optimize::kPatternPadding + 1.0;
-  std::vector<PointRef> active;
-  for (map::KeyFrameId h : trackingHosts(map, reference)) {
-    const DirectHost& host = hosts_.at(h);
-    const Eigen::Isometry3d T_cam_host = frame.T_cam_world * map.keyFrame(h).T_world_cam();
-    for (std::size_t i = 0; i < host.points.size(); ++i) {
-      const DirectMapPoint& p = host.points[i];
-      if (p.bad) continue;
-      const Eigen::Vector3d pc = T_cam_host * (p.landmark->bearing / p.landmark->inverseDepth);
-      if (pc.z() <= 0.0) continue;
-      const Eigen::Vector2d uv = intrinsics_.project(pc);
-      if (uv.x() < margin || uv.y() < margin || uv.x() > level0.cols - 1 - margin || uv.y() > level0.rows - 1 - margin)
-        continue;
-      lastInView_.push_back({h, i});
-      if (mayUse(p, h)) {
-        active.push_back({h, i});
-        ++lastActive_;
-        if (h == reference) ++lastReferenceInView_;
-      } else {
-        ++lastInactive_;
-      }
-    }
-  }
-  if (auto ref = hosts_.find(reference); ref != hosts_.end())
-    for (const DirectMapPoint& p : ref->second.points) lastReferenceActive_ += mayUse(p, reference) ? 1 : 0;
-  if (active.empty()) return {};
-  const std::vector<std::size_t> chosen = evenSubset(active.size(), static_cast<std::size_t>(params_.maxTrackingPoints));
-
-  if (params_.estimateAffine) {
-    // DSO estimates (a, b) jointly with the pose; here they come first, from the radiance of the points' centre
-    // pixels at the current estimate against the frame's intensities there: median and MAD match (robust to
-    // the misregistered and the dynamic ones), then the pose is optimized with them fixed.
-    std::vector<double> radiance, intensity;
-    for (std::size_t c : chosen) {
-      const PointRef& r = active[c];
-      const DirectHost& host = hosts_.at(r.host);
-      const DirectMapPoint& p = host.points[r.index];
-      if (!p.landmark->usableAt(0)) continue;
-      const Eigen::Vector3d pc = frame.T_cam_world * worldPosition(map, p);
-      const Eigen::Vector2d uv = intrinsics_.project(pc);
-      radiance.push_back(std::exp(-host.affine.a) * (p.landmark->hostIntensities[0][4] - host.affine.b));
-      intensity.push_back(optimize::sampleBilinear(level0, uv.x(), uv.y()));
-    }
-    if (radiance.size() >= 30) {
-      const auto [mr, sr] = medianAndMad(radiance);
-      const auto [mi, si] = medianAndMad(intensity);
-      if (sr > 1e-3 && si > 1e-3) {
-        const double a = std::clamp(std::log(si / sr), -1.0, 1.0);
-        frameAffine_ = {a, mi - std::exp(a) * mr};
-      }
-    }
-  }
-
-  std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>> factors;
-  factors.reserve(chosen.size());
-  for (std::size_t c : chosen) {
-    const PointRef& r = active[c];
-    const DirectHost& host = hosts_.at(r.host);
-    factors.push_back(std::make_shared<optimize::PhotometricPoseFactor>(
-        host.points[r.index].landmark, map.keyFrame(r.host).T_cam_world, host.affine, framePyramid_, frameAffine_,
-        intrinsics_, 0, params_.photometric));
-    lastFactors_.push_back(r);
-  }
-  return factors;
-}
-
-tracking::DirectFrameCounts DirectFrontEnd::viewCounts() const {
-  tracking::DirectFrameCounts counts;
+DirectFrameCounts DirectFrontEnd::viewCounts() const {
+  DirectFrameCounts counts;
   counts.active = lastActive_;
   counts.inactive = lastInactive_;
   counts.referenceInView = lastReferenceInView_;
@@ -248,9 +129,9 @@ tracking::DirectFrameCounts DirectFrontEnd::viewCounts() const {
   return counts;
 }
 
-tracking::DirectFrameCounts DirectFrontEnd::afterTracking(const tracking::Frame& frame, const map::Map& map,
+DirectFrameCounts DirectFrontEnd::afterTracking(const tracking::Frame& frame, const map::Map& map,
                                                           const std::vector<bool>& factorOutliers) {
-  tracking::DirectFrameCounts counts = viewCounts();
+  DirectFrameCounts counts = viewCounts();
   if (factorOutliers.size() == lastFactors_.size()) {
     counts.factors = static_cast<int>(lastFactors_.size());
     for (std::size_t k = 0; k < lastFactors_.size(); ++k) {
@@ -368,253 +249,6 @@ void DirectFrontEnd::addKeyFrame(map::KeyFrameId kf, const cv::Mat& grey, const 
   host.points.clear();
 }
 
-DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyFrameId kfId) {
-  const auto t0 = Clock::now();
-  DirectCreationReport report;
-  auto it = hosts_.find(kfId);
-  if (it == hosts_.end() || it->second.grey.empty() || !map.hasKeyFrame(kfId)) return report;
-  DirectHost& host = it->second;
-  const map::KeyFrame& kf = map.keyFrame(kfId);
-  // Depth prior of the expected positions: the host's map points (median per cell of an 8 x 6 grid, the
-  // keyframe's median where a cell has none).
-  constexpr int kCellsX = 8, kCellsY = 6;
-  std::vector<std::vector<double>> cellDepths(kCellsX * kCellsY);
-  std::vector<double> allDepths;
-  auto cellOf = [&](const Eigen::Vector2d& px) {
-    const int cx = std::clamp(static_cast<int>(px.x() * kCellsX / host.grey.cols), 0, kCellsX - 1);
-    const int cy = std::clamp(static_cast<int>(px.y() * kCellsY / host.grey.rows), 0, kCellsY - 1);
-    return cy * kCellsX + cx;
-  };
-  for (std::size_t i = 0; i < kf.mapPointIds.size(); ++i) {
-    const map::MapPointId id = kf.mapPointIds[i];
-    if (id == map::kNoMapPoint || !map.hasMapPoint(id) || map.mapPoint(id).bad) continue;
-    const double z = (kf.T_cam_world * map.worldPosition(id)).z();
-    if (z <= 0.0) continue;
-    cellDepths[static_cast<std::size_t>(cellOf(kf.pixel(i)))].push_back(z);
-    allDepths.push_back(z);
-  }
-  if (allDepths.empty()) return report;
-  const double globalDepth = medianOf(allDepths);
-
-  // The partner: the most recent keyframes with an image first (the least change of appearance for the optical
-  // flow), then the best covisible ones; the first whose baseline is at least minPartnerBaseline of the scene
-  // depth (a keyframe inserted one frame after the last one has too little parallax to triangulate), else the
-  // candidate with the longest baseline.
-  std::vector<map::KeyFrameId> candidates;
-  for (auto h = hosts_.rbegin(); h != hosts_.rend() && candidates.size() < 3; ++h)
-    if (h->first != kfId && map.hasKeyFrame(h->first) && !h->second.grey.empty()) candidates.push_back(h->first);
-  for (map::KeyFrameId n : map.bestCovisibleKeyFrames(kfId, 10)) {
-    auto h = hosts_.find(n);
-    if (h != hosts_.end() && !h->second.grey.empty() &&
-        std::find(candidates.begin(), candidates.end(), n) == candidates.end())
-      candidates.push_back(n);
-  }
-  double longest = -1.0;
-  for (map::KeyFrameId c : candidates) {
-    const double ratio = (map.keyFrame(c).cameraCenter() - kf.cameraCenter()).norm() / globalDepth;
-    if (ratio >= params_.minPartnerBaseline) {
-      report.partner = c;
-      break;
-    }
-    if (ratio > longest) {
-      longest = ratio;
-      report.partner = c;
-    }
-  }
-  if (report.partner == map::kNoKeyFrame) return report;
-  DirectHost& partner = hosts_.at(report.partner);
-  const map::KeyFrame& pkf = map.keyFrame(report.partner);
-
-  // Multi-resolution selection (Algorithm 3 on halved images), points in level-0 pixels.
-  auto step = Clock::now();
-  std::vector<cv::Mat> levels{host.grey};
-  for (int l = 1; l < params_.selectionLevels; ++l) {
-    cv::Mat half;
-    cv::resize(levels.back(), half, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0, 0, cv::INTER_AREA);
-    if (half.cols < 16 || half.rows < 16) break;
-    levels.push_back(half);
-  }
-  const features::DirectPointSelector selector(params_.selector);
-  const auto selected = selector.selectPyramid(levels);
-  const double border = optimize::kPatternPadding * (1 << (params_.pyramidLevels - 1)) + 2.0;
-  std::vector<Eigen::Vector2d> pixels;
-  for (std::size_t l = 0; l < selected.size(); ++l) {
-    const double s = static_cast<double>(1 << l);
-    for (const features::DirectPoint& d : selected[l]) {
-      const Eigen::Vector2d p(toOriginalPixel(static_cast<double>(d.pixel.x), s),
-                              toOriginalPixel(static_cast<double>(d.pixel.y), s));
-      if (p.x() < border || p.y() < border || p.x() > host.grey.cols - 1 - border || p.y() > host.grey.rows - 1 - border)
-        continue;
-      pixels.push_back(p);
-    }
-  }
-  report.selected = static_cast<int>(pixels.size());
-  report.selectionMs = msSince(step);
-  step = Clock::now();
-  if (pixels.empty()) return report;
-
-  std::vector<double> cellDepth(cellDepths.size(), globalDepth);
-  for (std::size_t c = 0; c < cellDepths.size(); ++c)
-    if (cellDepths[c].size() >= 3) cellDepth[c] = medianOf(cellDepths[c]);
-
-  const Eigen::Isometry3d T_partner_host = pkf.T_cam_world * kf.T_world_cam();
-  std::vector<cv::Point2f> from, guesses;
-  for (const Eigen::Vector2d& px : pixels) {
-    const Eigen::Vector3d ray = intrinsics_.bearing(px);
-    const double z = cellDepth[static_cast<std::size_t>(cellOf(px))];
-    const Eigen::Vector3d pc = T_partner_host * (ray / ray.z() * z);
-    const Eigen::Vector2d g = pc.z() > 0.0 ? intrinsics_.project(pc) : px;
-    from.emplace_back(static_cast<float>(px.x()), static_cast<float>(px.y()));
-    guesses.emplace_back(static_cast<float>(g.x()), static_cast<float>(g.y()));
-  }
-  const Eigen::Matrix3d F12 = geometry::fundamentalFromPoses(
-      intrinsics_.K(), kf.T_cam_world.linear(), kf.T_cam_world.translation(), intrinsics_.K(),
-      pkf.T_cam_world.linear(), pkf.T_cam_world.translation());
-  cv::Matx33d F21;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) F21(r, c) = F12(c, r);
-  features::DirectMatchParams mp;
-  mp.windowSize = params_.flowWindow;
-  mp.pyramidLevels = params_.flowLevels;
-  mp.maxEpipolarDistance = static_cast<float>(params_.maxEpipolarDistance);
-  mp.maxForwardBackward = static_cast<float>(params_.maxForwardBackward);
-  const std::vector<features::DirectMatch> matches =
-      features::matchDirectPoints(host.grey, partner.grey, from, guesses, &F21, mp);
-  report.flowMs = msSince(step);
-  step = Clock::now();
-
-  const geometry::Matrix34d P1 =
-      geometry::projectionMatrix(intrinsics_.K(), kf.T_cam_world.linear(), kf.T_cam_world.translation());
-  const geometry::Matrix34d P2 =
-      geometry::projectionMatrix(intrinsics_.K(), pkf.T_cam_world.linear(), pkf.T_cam_world.translation());
-  const Eigen::Vector3d O1 = kf.cameraCenter(), O2 = pkf.cameraCenter();
-  const Eigen::Vector3d t_host_partner = kf.T_cam_world * O2;
-  const std::shared_ptr<optimize::ImagePyramid> pyramid = hostPyramid(host);
-  const cv::Mat& partnerLevel0 = hostPyramid(partner)->level(0);
-  const double maxReproj2 = params_.maxReprojection * params_.maxReprojection;
-  for (std::size_t i = 0; i < pixels.size(); ++i) {
-    if (!matches[i].valid) continue;
-    ++report.tracked;
-    const Eigen::Vector2d x2(matches[i].position.x, matches[i].position.y);
-    Eigen::Vector3d X;
-    if (!geometry::triangulateDLT(P1, pixels[i], P2, x2, X)) continue;
-    const Eigen::Vector3d X1 = kf.T_cam_world * X, X2 = pkf.T_cam_world * X;
-    if (X1.z() <= 0.0 || X2.z() <= 0.0) continue;
-    const Eigen::Vector3d r1 = (X - O1).normalized(), r2 = (X - O2).normalized();
-    if (r1.dot(r2) > params_.maxParallaxCos) continue;
-    if ((intrinsics_.project(X1) - pixels[i]).squaredNorm() > maxReproj2 ||
-        (intrinsics_.project(X2) - x2).squaredNorm() > maxReproj2)
-      continue;
-    DirectMapPoint p;
-    try {
-      p.landmark = std::make_shared<optimize::DirectLandmark>(
-          optimize::DirectLandmark::create(kfId, pixels[i], 1.0 / X1.norm(), intrinsics_, *pyramid));
-    } catch (const Error&) {
-      continue;  // the pattern does not fit (cannot happen inside the border; kept as a guard)
-    }
-    // Seed of the keypoint model as for a triangulated keypoint (LocalMapper::createNewMapPoints): the inverse
-    // depth with this pair's eq. 2.24-2.29 variance, the class evidence of both views weighted by the matching
-    // accuracy of the pair (eq. 3.4).
-    const landmarks::DepthUncertainty tau = landmarks::depthUncertainty(p.landmark->bearing, X1.norm(), t_host_partner,
-                                                                        intrinsics_.fx, depthPixelNoise_);
-    const double variance = tau.valid && tau.tau2InverseDepth() > 0.0
-                                ? tau.tau2InverseDepth()
-                                : mapping::initialInverseDepthVariance(pointModel_.keypoint);
-    p.state = keypointModel_.initialize(p.landmark->inverseDepth / p.landmark->bearing.z(), variance);
-    const double ssd = patternSsdAt(*p.landmark, host.affine, partnerLevel0, x2, partner.affine);
-    const double alpha = std::isfinite(ssd) ? landmarks::matchingAccuracyFromSsd(ssd * 255.0 * 255.0,
-                                                                                 pointModel_.matching.photometricMaxSsd)
-                                            : 0.0;
-    keypointModel_.addSemanticObservation(p.state, classEvidenceAt(host.semantic, pixels[i]), 1.0);
-    keypointModel_.addSemanticObservation(p.state, classEvidenceAt(partner.semantic, x2), alpha);
-    host.points.push_back(std::move(p));
-    ++report.created;
-  }
-  report.pointsMs = msSince(step);
-  report.ms = msSince(t0);
-  return report;
-}
-
-std::vector<std::shared_ptr<optimize::BAFactor>> DirectFrontEnd::bundleAdjustmentFactors(
-    const map::Map& map, const optimize::BAProblem& problem) {
-  baPoints_.clear();
-  std::vector<std::shared_ptr<optimize::BAFactor>> factors;
-  if (!params_.localBundleAdjustment || params_.maxBaPoints == 0) return factors;
-  // Candidate points: active, hosted in a free window keyframe (a fixed host would only constrain poses that
-  // the keypoints already fix).
-  std::vector<PointRef> candidates;
-  for (const auto& [kfId, k] : problem.keyframes) {
-    if (k.fixed) continue;
-    auto h = hosts_.find(kfId);
-    if (h == hosts_.end()) continue;
-    for (std::size_t i = 0; i < h->second.points.size(); ++i)
-      if (mayUse(h->second.points[i], kfId)) candidates.push_back({kfId, i});
-  }
-  const std::vector<std::size_t> chosen = evenSubset(candidates.size(), static_cast<std::size_t>(params_.maxBaPoints));
-  std::map<map::KeyFrameId, std::shared_ptr<optimize::AffineBlock>> affine;
-  auto affineOf = [&](map::KeyFrameId id) {
-    auto& a = affine[id];
-    if (!a) {
-      a = std::make_shared<optimize::AffineBlock>();
-      a->ab = {hosts_.at(id).affine.a, hosts_.at(id).affine.b};
-      a->fixed = true;
-    }
-    return a;
-  };
-  const double margin = optimize::kPatternPadding + 1.0;
-  for (std::size_t c : chosen) {
-    const PointRef& r = candidates[c];
-    const DirectMapPoint& p = hosts_.at(r.host).points[r.index];
-    const Eigen::Vector3d pw = worldPosition(map, p);
-    int targets = 0;
-    // Targets: the other window keyframes with an image that see the point, the most recent first.
-    for (auto it = problem.keyframes.rbegin(); it != problem.keyframes.rend() && targets < params_.maxBaTargets; ++it) {
-      if (it->first == r.host) continue;
-      auto th = hosts_.find(it->first);
-      if (th == hosts_.end() || th->second.grey.empty()) continue;
-      const map::KeyFrame& t = map.keyFrame(it->first);
-      const Eigen::Vector3d pc = t.T_cam_world * pw;
-      if (pc.z() <= 0.0) continue;
-      const Eigen::Vector2d uv = intrinsics_.project(pc);
-      if (uv.x() < margin || uv.y() < margin || uv.x() > th->second.grey.cols - 1 - margin ||
-          uv.y() > th->second.grey.rows - 1 - margin)
-        continue;
-      factors.push_back(std::make_shared<optimize::PhotometricBAFactor>(
-          p.landmark, it->first, hostPyramid(th->second), intrinsics_, affineOf(r.host), affineOf(it->first), 0,
-          params_.photometric));
-      baPoints_.push_back(r);
-      ++targets;
-    }
-  }
-  return factors;
-}
-
-int DirectFrontEnd::afterBundleAdjustment(const std::vector<bool>& factorOutliers) {
-  std::map<std::pair<map::KeyFrameId, std::size_t>, bool> touched;  // point -> any outlier
-  for (std::size_t k = 0; k < baPoints_.size(); ++k) {
-    auto& any = touched[{baPoints_[k].host, baPoints_[k].index}];
-    if (k < factorOutliers.size() && factorOutliers[k]) any = true;
-  }
-  int updated = 0;
-  for (const auto& [key, outlier] : touched) {
-    auto h = hosts_.find(key.first);
-    if (h == hosts_.end() || key.second >= h->second.points.size()) continue;
-    DirectMapPoint& p = h->second.points[key.second];
-    if (!(p.landmark->inverseDepth > 0.0) || !std::isfinite(p.landmark->inverseDepth)) {
-      p.bad = true;
-      continue;
-    }
-    // §3.4.3: the refined depth becomes the filter mean (variance and inlier counts kept); an outlier in BA
-    // counts as a miss of the pose-optimization ratio.
-    p.state.mu = p.landmark->inverseDepth / p.landmark->bearing.z();
-    ++p.visible;
-    if (!outlier) ++p.found;
-    ++updated;
-  }
-  baPoints_.clear();
-  return updated;
-}
-
 void DirectFrontEnd::prune(const map::Map& map) {
   for (auto it = hosts_.begin(); it != hosts_.end();) {
     if (!map.hasKeyFrame(it->first))
@@ -643,7 +277,7 @@ void DirectFrontEnd::reset() {
   frameIndex_ = static_cast<std::size_t>(-1);
 }
 
-nlohmann::json DirectFrontEnd::summary() const {
+std::map<std::string, std::size_t> DirectFrontEnd::counts() const {
   std::size_t points = 0, active = 0;
   for (const auto& [id, h] : hosts_)
     for (const auto& p : h.points) {
@@ -652,6 +286,76 @@ nlohmann::json DirectFrontEnd::summary() const {
       if (mayUse(p, id)) ++active;
     }
   return {{"direct_points", points}, {"direct_active", active}, {"direct_hosts", hosts_.size()}};
+}
+
+// ---------------------------------------------------------------- the module's stages (tracking::LandmarkModule)
+
+nlohmann::json DirectFrameCounts::toJson() const {
+  return {{"direct_factors", factors},   {"direct_inliers", inliers},
+          {"direct_active", active},     {"direct_inactive", inactive},
+          {"direct_measured", measured}, {"direct_reference_in_view", referenceInView},
+          {"direct_reference_active", referenceActive}};
+}
+
+bool DirectFrontEnd::joins(const tracking::PoseAttempt& attempt) const {
+  return attempt.finalOptimization || attempt.keypointObservations < 2 * attempt.minPoseInliers;
+}
+
+tracking::ModulePoseFactors DirectFrontEnd::poseFactors(const tracking::Frame& frame, const map::Map& map,
+                                                        map::KeyFrameId reference) {
+  tracking::ModulePoseFactors factors;
+  factors.pyramid = photometricFactors(frame, map, reference);
+  return factors;
+}
+
+tracking::ModuleFrameReport DirectFrontEnd::afterTracking(const tracking::Frame& frame, const map::Map& map,
+                                                          const std::vector<bool>& factorOutliers, bool learn) {
+  DirectFrameCounts counts;
+  if (learn) {
+    counts = afterTracking(frame, map, factorOutliers);
+  } else {
+    // Localization: the points stay as they were loaded (no measurements, counters or culling); the report still
+    // says what the pose used and which points it saw.
+    counts = viewCounts();
+    counts.factors = static_cast<int>(factorOutliers.size());
+    for (bool o : factorOutliers) counts.inliers += o ? 0 : 1;
+  }
+  tracking::ModuleFrameReport report;
+  report.counts = counts.toJson();
+  report.referenceInView = counts.referenceInView;
+  report.referenceActive = counts.referenceActive;
+  return report;
+}
+
+void DirectFrontEnd::addKeyFrame(const tracking::KeyFrameImages& keyFrame) {
+  addKeyFrame(keyFrame.id, keyFrame.grey, keyFrame.semantic, keyFrame.fromLastFrame);
+}
+
+void DirectFrontEnd::afterLocalMapping(const map::Map& map, map::KeyFrameId kf, StageTimings& timings,
+                                       nlohmann::json& log) {
+  // New direct points at the keyframe's refined pose (§3.4.3), matched into its best covisible keyframe.
+  const DirectCreationReport d = createPoints(map, kf);
+  prune(map);
+  timings.add("direct_creation", d.ms);
+  if (d.partner != map::kNoKeyFrame) {  // its steps (doc/experiments.md, cost of the direct points)
+    timings.add("direct_selection", d.selectionMs);
+    timings.add("direct_flow", d.flowMs);
+    timings.add("direct_new_points", d.pointsMs);
+  }
+  log["direct_selected"] = d.selected;
+  log["direct_tracked"] = d.tracked;
+  log["direct_created"] = d.created;
+  log["direct_partner"] = d.partner == map::kNoKeyFrame ? -1 : static_cast<long long>(d.partner);
+}
+
+std::optional<std::string> DirectFrontEnd::mapExtension() const {
+  if (numPoints() == 0) return std::nullopt;
+  return serialize();
+}
+
+std::function<void()> DirectFrontEnd::prepareLoad(const std::string& bytes, const map::Map& loaded) {
+  auto hosts = std::make_shared<std::map<map::KeyFrameId, DirectHost>>(parse(bytes, loaded));
+  return [this, hosts] { restore(std::move(*hosts)); };
 }
 
 }  // namespace pslam::direct

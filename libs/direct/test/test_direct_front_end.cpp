@@ -163,7 +163,7 @@ TEST(DirectFrontEnd, TrackingUsesOnlyActivePointsAndConvergesToTheTruePose) {
   // the others inactive longer (§3.3).
   for (int k = 1; k <= 4; ++k) {
     tracking::Frame g = frameAt(0.05 * k, static_cast<std::size_t>(k), semantic);
-    const auto fs = fe.poseFactors(g, v.map, v.kf0);
+    const auto fs = fe.photometricFactors(g, v.map, v.kf0);
     fe.afterTracking(g, v.map, std::vector<bool>(fs.size(), false));
   }
   int activeStatic = 0, activeDynamic = 0;
@@ -179,7 +179,7 @@ TEST(DirectFrontEnd, TrackingUsesOnlyActivePointsAndConvergesToTheTruePose) {
   guess.linear() = Eigen::AngleAxisd(0.5 * M_PI / 180.0, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()) * guess.linear();
   const Eigen::Isometry3d truth = f.T_cam_world;
   f.T_cam_world = guess;
-  const auto factors = fe.poseFactors(f, v.map, v.kf0);
+  const auto factors = fe.photometricFactors(f, v.map, v.kf0);
   ASSERT_GT(factors.size(), 100u);
   int dynamicHost = 0;
   for (const auto& fac : factors) dynamicHost += fac->point().pixel.x() < kWidth / 2 - 3 ? 1 : 0;
@@ -199,7 +199,7 @@ TEST(DirectFrontEnd, TrackingUsesOnlyActivePointsAndConvergesToTheTruePose) {
 
   // §3.4.2: the frame measures every point in view, the inactive (dynamic-half) ones included.
   f.T_cam_world = result.T_cam_world;
-  const tracking::DirectFrameCounts counts = fe.afterTracking(f, v.map, outliers);
+  const direct::DirectFrameCounts counts = fe.afterTracking(f, v.map, outliers);
   EXPECT_EQ(counts.factors, static_cast<int>(factors.size()));
   EXPECT_EQ(counts.inliers, inliers);
   EXPECT_GT(counts.inactive, 100);
@@ -226,7 +226,7 @@ TEST(DirectFrontEnd, TrackingUsesOnlyActivePointsAndConvergesToTheTruePose) {
   auto* first = dynamic_cast<optimize::PhotometricBAFactor*>(baFactors.front().get());
   const double refined = first->point().inverseDepth * 1.01;  // as if BA had moved it
   const_cast<optimize::DirectLandmark&>(first->point()).inverseDepth = refined;
-  EXPECT_EQ(fe.afterBundleAdjustment(std::vector<bool>(baFactors.size(), false)), static_cast<int>(baFactors.size()));
+  EXPECT_EQ(fe.applyBundleAdjustment(std::vector<bool>(baFactors.size(), false)), static_cast<int>(baFactors.size()));
   bool found = false;
   for (const DirectMapPoint& p : fe.hosts().at(v.kf0).points)
     if (p.landmark.get() == &first->point()) {
@@ -241,7 +241,7 @@ TEST(DirectFrontEnd, HeuristicModelUsesEveryPointAndLearnsNothing) {
   TwoViews v = makeTwoViews(fe);
   const int created = fe.createPoints(v.map, v.kf0).created;
   tracking::Frame f = frameAt(0.1, 3);
-  const auto factors = fe.poseFactors(f, v.map, v.kf0);
+  const auto factors = fe.photometricFactors(f, v.map, v.kf0);
   EXPECT_EQ(static_cast<int>(factors.size()), std::min(created, fe.params().maxTrackingPoints));
   const auto counts = fe.afterTracking(f, v.map, std::vector<bool>(factors.size(), false));
   EXPECT_EQ(counts.inactive, 0);
@@ -274,7 +274,7 @@ TEST(DirectFrontEnd, MissingImagesAreNamed) {
   tracking::Frame f = frameAt(0.1, 4);
   f.grey = cv::Mat();
   try {
-    fe.poseFactors(f, v.map, v.kf0);
+    fe.photometricFactors(f, v.map, v.kf0);
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("frame 4"), std::string::npos) << e.what();
@@ -289,7 +289,7 @@ TEST(DirectFrontEnd, TheStoreSavedWithTheMapComesBackAndTracksWithoutItsImages) 
   TwoViews v = makeTwoViews(fe);
   ASSERT_GT(fe.createPoints(v.map, v.kf0).created, 500);
   tracking::Frame g = frameAt(0.1, 1);
-  const auto fs = fe.poseFactors(g, v.map, v.kf0);
+  const auto fs = fe.photometricFactors(g, v.map, v.kf0);
   fe.afterTracking(g, v.map, std::vector<bool>(fs.size(), false));  // counters move
   const_cast<DirectMapPoint&>(fe.hosts().at(v.kf0).points[7]).bad = true;  // culled: not saved
   const std::string bytes = fe.serialize();
@@ -319,7 +319,7 @@ TEST(DirectFrontEnd, TheStoreSavedWithTheMapComesBackAndTracksWithoutItsImages) 
   Eigen::Isometry3d guess = truth;
   guess.translation() += Eigen::Vector3d(0.03, -0.02, 0.03);
   f.T_cam_world = guess;
-  const auto factors = loaded.poseFactors(f, v.map, v.kf0);
+  const auto factors = loaded.photometricFactors(f, v.map, v.kf0);
   ASSERT_GT(factors.size(), 100u);
   tracking::PoseSolveRequest request;
   request.T_cam_world_initial = guess;

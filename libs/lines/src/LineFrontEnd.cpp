@@ -48,9 +48,7 @@ bool LineFrontEnd::inFront(const Line3& line, const Eigen::Isometry3d& T) const 
   return (T * line.start).z() > 0.0 && (T * line.end).z() > 0.0;
 }
 
-std::vector<std::shared_ptr<const optimize::PoseFactor>> LineFrontEnd::poseFactors(const tracking::Frame& frame,
-                                                                                   const map::Map& /*map*/,
-                                                                                   map::KeyFrameId /*reference*/) {
+std::vector<std::shared_ptr<const optimize::PoseFactor>> LineFrontEnd::lineFactors(const tracking::Frame& frame) {
   prepareFrame(frame);
   lastFactors_.clear();
   lastVisible_ = 0;
@@ -88,9 +86,8 @@ std::vector<std::shared_ptr<const optimize::PoseFactor>> LineFrontEnd::poseFacto
   return factors;
 }
 
-tracking::LineFrameCounts LineFrontEnd::afterTracking(const tracking::Frame& frame, const map::Map& /*map*/,
-                                                      const std::vector<bool>& factorOutliers) {
-  tracking::LineFrameCounts counts;
+LineFrameCounts LineFrontEnd::afterTracking(const tracking::Frame& frame, const std::vector<bool>& factorOutliers) {
+  LineFrameCounts counts;
   if (!framePrepared_ || frame.index != frameIndex_) return counts;
   counts.detected = static_cast<int>(frameFeatures_.size());
   counts.visible = lastVisible_;
@@ -287,7 +284,7 @@ std::vector<std::shared_ptr<optimize::BAFactor>> LineFrontEnd::bundleAdjustmentF
   return factors;
 }
 
-int LineFrontEnd::afterBundleAdjustment(const std::vector<bool>& factorOutliers) {
+int LineFrontEnd::applyBundleAdjustment(const std::vector<bool>& factorOutliers) {
   std::map<std::uint64_t, bool> touched;
   for (std::size_t k = 0; k < baFactors_.size(); ++k) {
     const auto& [id, kf] = baFactors_[k];
@@ -351,8 +348,68 @@ std::size_t LineFrontEnd::numLines() const {
   return n;
 }
 
-nlohmann::json LineFrontEnd::summary() const {
+std::map<std::string, std::size_t> LineFrontEnd::counts() const {
   return {{"lines", numLines()}, {"line_keyframes", keyframes_.size()}};
+}
+
+// ---------------------------------------------------------------- the module's stages (tracking::LandmarkModule)
+
+nlohmann::json LineFrameCounts::toJson() const {
+  return {{"lines_detected", detected}, {"lines_visible", visible}, {"lines_factors", factors},
+          {"lines_inliers", inliers}};
+}
+
+void LineFrontEnd::prepareFrame(const tracking::Frame& frame, StageTimings& timings) {
+  ScopedStage st(timings, "line_extraction");
+  prepareFrame(frame);
+}
+
+tracking::ModulePoseFactors LineFrontEnd::poseFactors(const tracking::Frame& frame, const map::Map& /*map*/,
+                                                      map::KeyFrameId /*reference*/) {
+  tracking::ModulePoseFactors factors;
+  factors.factors = lineFactors(frame);
+  return factors;
+}
+
+tracking::ModuleFrameReport LineFrontEnd::afterTracking(const tracking::Frame& frame, const map::Map& /*map*/,
+                                                        const std::vector<bool>& factorOutliers, bool learn) {
+  LineFrameCounts counts;
+  if (learn) {
+    counts = afterTracking(frame, factorOutliers);
+  } else {
+    // Localization: the line store stays as it was loaded (no counters, no culling); the report still says what
+    // the pose used.
+    counts.factors = static_cast<int>(factorOutliers.size());
+    for (bool o : factorOutliers) counts.inliers += o ? 0 : 1;
+  }
+  tracking::ModuleFrameReport report;
+  report.counts = counts.toJson();
+  return report;
+}
+
+void LineFrontEnd::addKeyFrame(const tracking::KeyFrameImages& keyFrame) {
+  addKeyFrame(keyFrame.id, keyFrame.grey, keyFrame.fromLastFrame);
+}
+
+void LineFrontEnd::afterLocalMapping(const map::Map& map, map::KeyFrameId kf, StageTimings& timings,
+                                     nlohmann::json& log) {
+  const LineCreationReport l = createLines(map, kf);
+  prune(map);
+  timings.add("line_creation", l.ms);
+  log["lines_created"] = l.created;
+  log["lines_fused"] = l.fused;
+  log["lines_culled"] = l.culled;
+  log["lines"] = numLines();
+}
+
+std::optional<std::string> LineFrontEnd::mapExtension() const {
+  if (keyframes_.empty()) return std::nullopt;
+  return serialize();
+}
+
+std::function<void()> LineFrontEnd::prepareLoad(const std::string& bytes, const map::Map& loaded) {
+  auto store = std::make_shared<Store>(parse(bytes, loaded));
+  return [this, store] { restore(std::move(*store)); };
 }
 
 }  // namespace pslam::lines

@@ -112,7 +112,7 @@ TEST_F(LineFrontEndTest, TriangulatesLinesOnTheRenderedSurfacesAndTracksThem) {
   const tracking::Frame f = frameOf(views_[1], 7);
   fe.prepareFrame(f);
   EXPECT_GT(fe.lastExtractionMs(), 0.0);
-  const auto factors = fe.poseFactors(f, m, k2);
+  const auto factors = fe.lineFactors(f);
   ASSERT_GT(factors.size(), 3u);
   std::vector<bool> outliers;
   int inliers = 0;
@@ -123,7 +123,7 @@ TEST_F(LineFrontEndTest, TriangulatesLinesOnTheRenderedSurfacesAndTracksThem) {
     inliers += ok ? 1 : 0;
   }
   EXPECT_GE(inliers, static_cast<int>(factors.size()) * 7 / 10);
-  const tracking::LineFrameCounts counts = fe.afterTracking(f, m, outliers);
+  const lines::LineFrameCounts counts = fe.afterTracking(f, outliers);
   EXPECT_EQ(counts.detected, 40);
   EXPECT_EQ(counts.factors, static_cast<int>(factors.size()));
   EXPECT_EQ(counts.inliers, inliers);
@@ -152,7 +152,7 @@ TEST_F(LineFrontEndTest, TriangulatesLinesOnTheRenderedSurfacesAndTracksThem) {
   EXPECT_LE(baFactors.size(), expected);  // lines behind a window keyframe stay out
   std::vector<bool> baOutliers(baFactors.size(), false);
   if (!baOutliers.empty()) baOutliers[0] = true;
-  EXPECT_GT(fe.afterBundleAdjustment(baOutliers), 0);
+  EXPECT_GT(fe.applyBundleAdjustment(baOutliers), 0);
 
   // A keyframe leaving the map takes its observations; lines left with one are erased by prune.
   m.eraseKeyFrame(k2);
@@ -180,9 +180,9 @@ TEST_F(LineFrontEndTest, LinesTheOptimizationsRejectAreCulled) {
   std::size_t rejected = 0;
   for (int k = 0; k < 3; ++k) {
     const tracking::Frame f = frameOf(views_[1], 10 + static_cast<std::size_t>(k));
-    const auto factors = fe.poseFactors(f, m, k2);
+    const auto factors = fe.lineFactors(f);
     rejected = factors.size();
-    fe.afterTracking(f, m, std::vector<bool>(factors.size(), true));
+    fe.afterTracking(f, std::vector<bool>(factors.size(), true));
   }
   ASSERT_GT(rejected, 0u);
   EXPECT_LE(fe.numLines(), before - rejected);
@@ -198,8 +198,8 @@ TEST_F(LineFrontEndTest, TheLineStoreSavedWithTheMapComesBackByteForByteAndABadO
   const auto [k0, k2] = twoKeyFrames(fe, m);
   fe.createLines(m, k2);
   const tracking::Frame f = frameOf(views_[1], 5);
-  const auto factors = fe.poseFactors(f, m, k2);
-  fe.afterTracking(f, m, std::vector<bool>(factors.size(), false));
+  const auto factors = fe.lineFactors(f);
+  fe.afterTracking(f, std::vector<bool>(factors.size(), false));
   ASSERT_GT(fe.numLines(), 3u);
   const std::string bytes = fe.serialize();
 
@@ -217,7 +217,7 @@ TEST_F(LineFrontEndTest, TheLineStoreSavedWithTheMapComesBackByteForByteAndABadO
   }
   EXPECT_EQ(restored.keyFrames().size(), 2u);
   // The restored lines are tracked like the originals.
-  EXPECT_EQ(restored.poseFactors(f, m, k2).size(), fe.poseFactors(f, m, k2).size());
+  EXPECT_EQ(restored.lineFactors(f).size(), fe.lineFactors(f).size());
 
   auto errorOf = [&](const std::string& b, const map::Map& against) {
     LineFrontEnd target(p, camera());

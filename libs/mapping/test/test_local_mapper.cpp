@@ -13,22 +13,13 @@
 #include "pslam/mapping/LocalMapper.h"
 #include "pslam/optimize/PoseParameterization.h"
 #include <ceres/autodiff_cost_function.h>
+#include "LocalMappingSequence.h"
 #include "SyntheticScene.h"
 
 namespace pslam::mapping {
 namespace {
 
-using map::KeyFrame;
-using map::KeyFrameId;
-using map::MapPointId;
-
 using namespace pslam::mapping::testing;
-
-LocalMappingParams heuristicParams() {
-  LocalMappingParams p;
-  p.ba.numThreads = 1;
-  return p;
-}
 
 TEST(LocalMappingParams, DefaultsAreOrbSlamAndBadValuesNameTheKey) {
   LocalMappingParams p;
@@ -378,7 +369,25 @@ class ConstantFactor : public optimize::BAFactor {
 };
 }  // namespace
 
-TEST(LocalMapper, EveryBAFactorHookGetsTheOutlierFlagsOfItsOwnFactors) {
+/// A BA factor source that returns fixed factors and keeps the flags it is given (and how many factors the problem
+/// held when it was asked).
+class RecordingSource : public optimize::BAFactorSource {
+ public:
+  explicit RecordingSource(std::vector<std::shared_ptr<optimize::BAFactor>> factors) : factors_(std::move(factors)) {}
+  std::vector<std::shared_ptr<optimize::BAFactor>> bundleAdjustmentFactors(const map::Map&,
+                                                                          const optimize::BAProblem& problem) override {
+    factorsBefore = problem.factors.size();
+    return factors_;
+  }
+  void afterBundleAdjustment(const std::vector<bool>& outliers) override { flags = outliers; }
+  std::size_t factorsBefore = 0;
+  std::vector<bool> flags;
+
+ private:
+  std::vector<std::shared_ptr<optimize::BAFactor>> factors_;
+};
+
+TEST(LocalMapper, EveryBAFactorSourceGetsTheOutlierFlagsOfItsOwnFactors) {
   std::mt19937 rng(21);
   Scene s = makeScene(150, 16);
   map::Map map;
@@ -388,63 +397,17 @@ TEST(LocalMapper, EveryBAFactorHookGetsTheOutlierFlagsOfItsOwnFactors) {
   params.ba.maxLocalKeyFrames = 3;
   LocalMapper mapper(map, params);
   const map::KeyFrameId kf = s.keyframes[5];
-  std::vector<bool> first, second;
-  std::size_t seenBySecond = 0;
-  mapper.addBAFactorHooks(
-      [&](const map::Map&, const optimize::BAProblem&) {
-        return std::vector<std::shared_ptr<optimize::BAFactor>>{std::make_shared<ConstantFactor>(kf, 0.1),
-                                                                std::make_shared<ConstantFactor>(kf, 10.0)};
-      },
-      [&](const std::vector<bool>& o) { first = o; });
-  mapper.addBAFactorHooks(
-      [&](const map::Map&, const optimize::BAProblem& problem) {
-        seenBySecond = problem.factors.size();  // the first hook's factors are already there
-        return std::vector<std::shared_ptr<optimize::BAFactor>>{std::make_shared<ConstantFactor>(kf, 5.0)};
-      },
-      [&](const std::vector<bool>& o) { second = o; });
+  auto first = std::make_shared<RecordingSource>(std::vector<std::shared_ptr<optimize::BAFactor>>{
+      std::make_shared<ConstantFactor>(kf, 0.1), std::make_shared<ConstantFactor>(kf, 10.0)});
+  auto second = std::make_shared<RecordingSource>(
+      std::vector<std::shared_ptr<optimize::BAFactor>>{std::make_shared<ConstantFactor>(kf, 5.0)});
+  mapper.addBAFactorSource(first);
+  mapper.addBAFactorSource(second);
   mapper.runLocalBundleAdjustment(kf);
-  EXPECT_EQ(seenBySecond, 2u);
-  EXPECT_EQ(first, (std::vector<bool>{false, true}));
-  EXPECT_EQ(second, (std::vector<bool>{true}));
-  // setBAFactorHooks replaces both by one.
-  first.clear();
-  second.clear();
-  mapper.setBAFactorHooks(
-      [&](const map::Map&, const optimize::BAProblem&) {
-        return std::vector<std::shared_ptr<optimize::BAFactor>>{std::make_shared<ConstantFactor>(kf, 0.5)};
-      },
-      [&](const std::vector<bool>& o) { first = o; });
-  mapper.runLocalBundleAdjustment(kf);
-  EXPECT_EQ(first, (std::vector<bool>{false}));
-  EXPECT_TRUE(second.empty());
-}
-
-/// Tracker + local mapping over `numSlots` keyframes; the first two come with an initial map of 60 points.
-/// `outsideMapLock`: the threaded mode's runner (LocalMapper::setOutsideMapLock), none = sequential.
-map::Map runSequence(const LocalMappingParams& params, int numSlots, std::vector<LocalMappingReport>* reports,
-                     Scene* sceneOut = nullptr, LocalMapper::OutsideMapLock outsideMapLock = nullptr) {
-  std::mt19937 rng(31);
-  Scene s = makeScene(300, 17);
-  map::Map map;
-  addKeyFrame(map, s, 0, rng);
-  addKeyFrame(map, s, 1, rng);
-  const auto initial = addTruePoints(map, s, 0, 60, 0, {0, 1});
-  LocalMapper mapper(map, params);
-  if (outsideMapLock) mapper.setOutsideMapLock(outsideMapLock);
-  reports->push_back(mapper.processKeyFrame(s.keyframes[0], {}));
-  map.checkInvariants("slot 0");
-  reports->push_back(mapper.processKeyFrame(s.keyframes[1], initial));
-  learnMapPoints(map, s);
-  map.checkInvariants("slot 1");
-  for (int slot = 2; slot < numSlots; ++slot) {
-    addKeyFrame(map, s, slot, rng);
-    trackKeyFrame(map, s, slot);
-    reports->push_back(mapper.processKeyFrame(s.keyframes[slot], {}));
-    map.checkInvariants("slot " + std::to_string(slot));
-    learnMapPoints(map, s);
-  }
-  if (sceneOut) *sceneOut = s;
-  return map;
+  EXPECT_EQ(first->factorsBefore, 0u);
+  EXPECT_EQ(second->factorsBefore, 2u) << "the first source's factors come first";
+  EXPECT_EQ(first->flags, (std::vector<bool>{false, true}));
+  EXPECT_EQ(second->flags, (std::vector<bool>{true}));
 }
 
 TEST(LocalMapper, SequenceKeepsInvariantsGrowsAnAccurateMapAndIsDeterministic) {
@@ -559,224 +522,6 @@ TEST(LocalMapper, AMapResetWhileOutsideTheLockStopsTheKeyFrame) {
         EXPECT_TRUE(map.keyFrame(id).T_cam_world.isApprox(kf.T_cam_world, 0.0)) << "keyframe " << id << " moved";
     }
   }
-}
-
-TEST(LocalMapper, ProbabilisticModelUpdatesPointStatesAndActivatesConsistentPoints) {
-  LocalMappingParams params = heuristicParams();
-  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
-  std::vector<LocalMappingReport> reports;
-  Scene s;
-  const map::Map m = runSequence(params, 12, &reports, &s);
-  int updates = 0;
-  for (const auto& r : reports) updates += r.landmarkUpdates;
-  EXPECT_GT(updates, 100);
-  landmarks::KeypointModel model(params.pointModel.keypoint);
-  const double freshPhi = model.inlierRatio(model.initialize(0.2, 1e-4));
-  // a = b = 10 and no class evidence (static, A = 5): new points start at psi_min exactly, active.
-  ASSERT_EQ(freshPhi, params.pointModel.keypoint.psiMin);
-  int withState = 0, measured = 0, active = 0, updatedOften = 0;
-  for (const auto& [id, p] : m.mapPoints()) {
-    if (p.landmarkState.empty()) continue;
-    ++withState;
-    const landmarks::KeypointState st = decodeKeypointState(p.landmarkState, "test");
-    // The filter's inverse depth agrees with the (exact) geometry.
-    EXPECT_NEAR(st.mu, p.inverseDepthAlongZ(), 0.02 * p.inverseDepthAlongZ()) << "point " << id;
-    if (st.depthUpdates == 0) continue;
-    ++measured;
-    // Consistent measurements only ever raise the inlier ratio.
-    EXPECT_GT(model.inlierRatio(st), freshPhi) << "point " << id;
-    // Each inlier adds about one count to a_obs, so phi passes psi_min = 0.6 after a handful (Table 3.2).
-    if (st.depthUpdates >= 8) {
-      ++updatedOften;
-      active += model.isActive(st);
-    }
-  }
-  EXPECT_GT(withState, 100);
-  EXPECT_GT(measured, 100);
-  ASSERT_GT(updatedOften, 20);
-  EXPECT_EQ(active, updatedOften);
-}
-
-// Masking model: points whose semantic evidence says "dynamic" are inactive and left out of local BA.
-TEST(LocalMapper, MaskingModelDeactivatesDynamicPointsAndKeepsThemOutOfBundleAdjustment) {
-  std::mt19937 rng(41);
-  Scene s = makeScene(120, 18);
-  map::Map map;
-  for (int slot = 0; slot < 3; ++slot) {
-    const KeyFrameId id = addKeyFrame(map, s, slot, rng);
-    KeyFrame& kf = map.mutableKeyFrame(id);
-    kf.semanticProbabilities.assign(kf.numKeypoints(), {0.9f, 0.05f, 0.05f});
-    for (int i = 0; i < 20; ++i)
-      if (s.keypointOf[slot][i] >= 0) kf.semanticProbabilities[s.keypointOf[slot][i]] = {0.05f, 0.9f, 0.05f};
-  }
-  const auto ids = addTruePoints(map, s, 0, 60, 0, {0, 1, 2});
-  LocalMappingParams params = heuristicParams();
-  params.pointModel.policy.model = landmarks::MapPointModel::Masking;
-  LocalMapper mapper(map, params);
-  for (int slot = 0; slot < 3; ++slot) mapper.processNewKeyFrame(s.keyframes[slot], {});
-  int dynamicSeen = 0;
-  for (int i = 0; i < 60; ++i) {
-    const MapPointId id = s.mapPointOf[i];
-    if (id == map::kNoMapPoint) continue;
-    EXPECT_EQ(mapper.isActive(id), i >= 20) << "scene point " << i;
-    dynamicSeen += i < 20;
-  }
-  ASSERT_GT(dynamicSeen, 5);
-  // Perturbed inverse depths: BA moves the static (active) points only.
-  std::map<MapPointId, double> before;
-  for (MapPointId id : ids) {
-    map.setInverseDepth(id, map.mapPoint(id).inverseDepth * 1.05);
-    before[id] = map.mapPoint(id).inverseDepth;
-  }
-  mapper.runLocalBundleAdjustment(s.keyframes[2]);
-  map.checkInvariants("after masked BA");
-  int movedStatic = 0;
-  for (int i = 0; i < 60; ++i) {
-    const MapPointId id = s.mapPointOf[i];
-    if (id == map::kNoMapPoint) continue;
-    if (i < 20)
-      EXPECT_EQ(map.mapPoint(id).inverseDepth, before[id]) << "inactive point " << i << " was optimized";
-    else
-      movedStatic += map.mapPoint(id).inverseDepth != before[id];
-  }
-  EXPECT_GT(movedStatic, 20);
-}
-
-// Probabilistic model: the policy culls a recent point whose inlier ratio collapsed, whatever its counters.
-TEST(LocalMapper, ProbabilisticCullingFollowsTheKeypointModel) {
-  std::mt19937 rng(43);
-  Scene s = makeScene(60, 19);
-  map::Map map;
-  for (int slot = 0; slot < 2; ++slot) addKeyFrame(map, s, slot, rng);
-  const auto ids = addTruePoints(map, s, 0, 60, 0, {0, 1});
-  ASSERT_GT(ids.size(), 10u);
-  LocalMappingParams params = heuristicParams();
-  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
-  const landmarks::KeypointModel model(params.pointModel.keypoint);
-  landmarks::KeypointState outlier = model.initialize(0.2, 1e-4);
-  // Far enough below the culling ratio that the static class evidence of a view without SEMANTIC (a_sem ~ 5,
-  // PointModelParams::semantic) does not lift it back above.
-  outlier.aObs = 1.0;
-  outlier.bObs = 80.0;
-  outlier.depthUpdates = params.pointModel.policy.cullMinDepthUpdates;
-  ASSERT_LT(model.inlierRatio(outlier), params.pointModel.policy.cullInlierRatio);
-  map.mutableMapPoint(ids[0]).landmarkState = encodeKeypointState(outlier);
-  LocalMapper mapper(map, params);
-  EXPECT_FALSE(mapper.isActive(ids[0]));
-  mapper.processNewKeyFrame(s.keyframes[1], ids);
-  // processNewKeyFrame added one (consistent) measurement: still far below the culling ratio.
-  EXPECT_EQ(mapper.cullRecentPoints(s.keyframes[1]), 1);
-  EXPECT_FALSE(map.hasMapPoint(ids[0]));
-  for (std::size_t n = 1; n < ids.size(); ++n) EXPECT_TRUE(map.hasMapPoint(ids[n]));
-  map.checkInvariants("after probabilistic culling");
-  // Also once out of probation: a point the new keyframe observes is checked by the policy.
-  map.mutableMapPoint(ids[1]).landmarkState = encodeKeypointState(outlier);
-  mapper.reset();
-  int byInlierRatio = -1;
-  EXPECT_EQ(mapper.cullRecentPoints(s.keyframes[1], &byInlierRatio), 1);
-  EXPECT_EQ(byInlierRatio, 1) << "culled by the phi rule, not by ORB-SLAM's recent-point rules";
-  EXPECT_FALSE(map.hasMapPoint(ids[1]));
-}
-
-TEST(LocalMapper, ProbabilisticSequenceIsDeterministic) {
-  LocalMappingParams params = heuristicParams();
-  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
-  std::vector<LocalMappingReport> r1, r2;
-  EXPECT_TRUE(runSequence(params, 6, &r1) == runSequence(params, 6, &r2));
-}
-
-// The steps one by one on a noisy sequence (1 px keypoint noise): the map invariants hold after each.
-TEST(LocalMapper, InvariantsHoldAfterEveryStep) {
-  std::mt19937 rng(51);
-  Scene s = makeScene(300, 24);
-  s.pixelNoise = 1.0;
-  map::Map map;
-  addKeyFrame(map, s, 0, rng);
-  addKeyFrame(map, s, 1, rng);
-  const auto initial = addTruePoints(map, s, 0, 60, 0, {0, 1});
-  LocalMapper mapper(map, heuristicParams());
-  int erasedObservations = 0;
-  for (int slot = 0; slot < 8; ++slot) {
-    const KeyFrameId id = slot < 2 ? s.keyframes[slot] : addKeyFrame(map, s, slot, rng);
-    if (slot >= 2) trackKeyFrame(map, s, slot);
-    const std::string at = "slot " + std::to_string(slot) + " after ";
-    mapper.processNewKeyFrame(id, slot == 1 ? initial : std::vector<MapPointId>{});
-    map.checkInvariants(at + "processNewKeyFrame");
-    mapper.cullRecentPoints(id);
-    map.checkInvariants(at + "cullRecentPoints");
-    mapper.createNewMapPoints(id);
-    map.checkInvariants(at + "createNewMapPoints");
-    mapper.searchInNeighbors(id);
-    map.checkInvariants(at + "searchInNeighbors");
-    if (map.numKeyFrames() > 2) erasedObservations += mapper.runLocalBundleAdjustment(id).observationsErased;
-    map.checkInvariants(at + "runLocalBundleAdjustment");
-    mapper.cullKeyFrames(id);
-    map.checkInvariants(at + "cullKeyFrames");
-    learnMapPoints(map, s);
-  }
-  EXPECT_GT(map.numMapPoints(), 150u);
-  std::printf("keyframes %zu, points %zu, BA observations erased %d\n", map.numKeyFrames(), map.numMapPoints(),
-              erasedObservations);
-}
-
-TEST(LocalMapper, UnknownKeyFrameIsAnError) {
-  map::Map map;
-  LocalMapper mapper(map, heuristicParams());
-  EXPECT_THROW(mapper.processKeyFrame(42, {}), Error);
-}
-
-
-/// A policy that refuses every point with an odd id (and counts how often it was asked).
-class OddIdsRefused : public map::PointUsePolicy {
- public:
-  std::string name() const override { return "odd-ids-refused"; }
-  bool mayUse(const map::MapPoint& p) const override {
-    ++asked;
-    return !p.bad && p.id % 2 == 0;
-  }
-  bool shouldCull(const map::MapPoint& p, KeyFrameId) const override { return p.bad; }
-  mutable int asked = 0;
-};
-
-TEST(LocalMapper, BundleAdjustmentNeverUsesAPointThePolicyRefuses) {
-  std::mt19937 rng(21);
-  Scene s = makeScene(150, 16);
-  map::Map map;
-  for (int slot = 0; slot < 6; ++slot) addKeyFrame(map, s, slot, rng);
-  const auto ids = addTruePoints(map, s, 0, 150, 0, {0, 1, 2, 3, 4, 5});
-  std::normal_distribution<double> n(0.0, 0.05);
-  for (MapPointId id : ids) map.setInverseDepth(id, map.mapPoint(id).inverseDepth * (1.0 + n(rng)));
-  std::map<MapPointId, double> before;
-  for (MapPointId id : ids) before[id] = map.mapPoint(id).inverseDepth;
-  LocalMappingParams params = heuristicParams();
-  params.ba.maxLocalKeyFrames = 3;
-  auto policy = std::make_shared<OddIdsRefused>();
-  LocalMapper mapper(map, params, policy);
-  EXPECT_EQ(mapper.pointUsePolicy(), policy);
-  mapper.runLocalBundleAdjustment(s.keyframes[5]);
-  EXPECT_GT(policy->asked, 0);
-  int movedEven = 0;
-  for (MapPointId id : ids) {
-    ASSERT_TRUE(map.hasMapPoint(id));
-    if (id % 2 == 1)
-      EXPECT_EQ(map.mapPoint(id).inverseDepth, before[id]) << "refused point " << id << " was optimized";
-    else
-      movedEven += map.mapPoint(id).inverseDepth != before[id] ? 1 : 0;
-  }
-  EXPECT_GT(movedEven, 30);
-  EXPECT_FALSE(mapper.isActive(ids[0] % 2 == 1 ? ids[0] : ids[1]));
-}
-
-TEST(LocalMapper, DefaultPolicyIsTheMapPointModel) {
-  map::Map map;
-  LocalMappingParams params = heuristicParams();
-  LocalMapper heuristic(map, params);
-  EXPECT_EQ(heuristic.pointUsePolicy()->name(), "heuristic");
-  EXPECT_TRUE(heuristic.pointUsePolicy()->usesEveryGoodPoint());
-  params.pointModel.policy.model = landmarks::MapPointModel::Probabilistic;
-  LocalMapper probabilistic(map, params);
-  EXPECT_EQ(probabilistic.pointUsePolicy()->name(), "probabilistic");
-  EXPECT_FALSE(probabilistic.pointUsePolicy()->usesEveryGoodPoint());
 }
 
 }  // namespace

@@ -60,6 +60,18 @@ std::vector<Eigen::Vector3d> collectNormals(const cv::Mat& normals32f, int strid
   return out;
 }
 
+std::vector<Eigen::Vector3d> sampleNormals(const cv::Mat& normals8u, int stride, const std::string& context) {
+  require(stride >= 1, context, "normal stride must be >= 1");
+  if (normals8u.type() != CV_8UC3) decodeNormalMap(normals8u, context);  // says what the type should be
+  cv::Mat picked((normals8u.rows + stride - 1) / stride, (normals8u.cols + stride - 1) / stride, CV_8UC3);
+  for (int r = 0; r < picked.rows; ++r) {
+    const auto* in = normals8u.ptr<cv::Vec3b>(r * stride);
+    auto* out = picked.ptr<cv::Vec3b>(r);
+    for (int c = 0; c < picked.cols; ++c) out[c] = in[c * stride];
+  }
+  return collectNormals(decodeNormalMap(picked, context), 1);
+}
+
 double normalAngleDeg(const cv::Vec3f& est, const cv::Vec3f& gt) {
   const double ne = cv::norm(est), ng = cv::norm(gt);
   const double c = std::clamp(static_cast<double>(est.dot(gt)) / (ne * ng), -1.0, 1.0);

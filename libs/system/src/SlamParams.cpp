@@ -8,10 +8,14 @@ namespace pslam::system {
 
 PSLAM_DEFINE_PARAMS(SystemParams)
 
-void SlamParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg) {
-  params::loadSections(*this, cfg);
-  mapping.ba = bundleAdjustment;
-  mapping.pointModel = pointModel;
+void SlamParams::loadFromConfigFile(const mrpt::config::CConfigFileBase& cfg) { params::loadSections(*this, cfg); }
+
+mapping::LocalMappingParams SlamParams::localMapping() const {
+  mapping::LocalMappingParams m = mapping;
+  m.ba = bundleAdjustment;
+  m.pointModel = pointModel;
+  if (directFeatures.enabled && m.minTriangulationNeighbours == 0) m.minTriangulationNeighbours = 2;
+  return m;
 }
 
 void SlamParams::saveToConfigFile(mrpt::config::CConfigFileBase& cfg) const { params::saveSections(*this, cfg); }

@@ -76,8 +76,8 @@ TEST(SlamParams, RoundTripThroughIni) {
   EXPECT_EQ(q.pointModel.policy.model, landmarks::MapPointModel::Probabilistic);
   EXPECT_EQ(q.pointModel.keypoint.probabilityFloor, 1.0 / 510.0);
   // The mapper's copies follow the sections they come from.
-  EXPECT_EQ(q.mapping.pointModel.policy.model, landmarks::MapPointModel::Probabilistic);
-  EXPECT_EQ(q.mapping.ba.maxLocalKeyFrames, q.bundleAdjustment.maxLocalKeyFrames);
+  EXPECT_EQ(q.localMapping().pointModel.policy.model, landmarks::MapPointModel::Probabilistic);
+  EXPECT_EQ(q.localMapping().ba.maxLocalKeyFrames, q.bundleAdjustment.maxLocalKeyFrames);
   EXPECT_TRUE(q.system.threaded);
   EXPECT_EQ(q.system.threadedTracking, "afterNewPoints");
   EXPECT_EQ(q.system.poseSolver, "manhattan3dof");
@@ -92,7 +92,7 @@ TEST(SlamParams, DefaultsOfTheNewKeys) {
   EXPECT_FALSE(p.system.threaded);
   EXPECT_EQ(p.system.threadedTracking, "live");
   EXPECT_EQ(p.pointModel.policy.model, landmarks::MapPointModel::Heuristic);
-  EXPECT_EQ(p.mapping.pointModel.policy.model, landmarks::MapPointModel::Heuristic);
+  EXPECT_EQ(p.localMapping().pointModel.policy.model, landmarks::MapPointModel::Heuristic);
   const std::string text = p.toIniText();
   for (const char* section : {"[ORB]", "[Initializer]", "[Tracking]", "[PoseOptimization]", "[BundleAdjustment]",
                               "[LocalMapping]", "[PointModel]", "[System]"})
@@ -223,8 +223,8 @@ TEST(SlamParams, OverridesApplyBeforeLoading) {
                                                 "ORB.nFeatures=1500", "ORB.nFeatures=1600", "System.threaded=true",
                                                 "PointModel.psiMin=0.7"});
   EXPECT_EQ(p.pointModel.policy.model, landmarks::MapPointModel::Probabilistic);
-  EXPECT_EQ(p.mapping.pointModel.policy.model, landmarks::MapPointModel::Probabilistic);
-  EXPECT_EQ(p.mapping.pointModel.keypoint.psiMin, 0.7);
+  EXPECT_EQ(p.localMapping().pointModel.policy.model, landmarks::MapPointModel::Probabilistic);
+  EXPECT_EQ(p.localMapping().pointModel.keypoint.psiMin, 0.7);
   EXPECT_EQ(p.tracking.keyFrames.maxFrames, 12);
   EXPECT_EQ(p.orb.nFeatures, 1600);  // the later override wins
   EXPECT_TRUE(p.system.threaded);

@@ -21,11 +21,13 @@ bool needNewKeyFrame(const KeyFrameDecisionInput& in, const KeyFrameDecisionPara
   // 80 ... 41 inliers and lost six frames later, doc/performance.md).
   const bool c2 = (in.trackedInliers < p.refRatio * in.referenceTrackedPoints || weakTracking(in)) &&
                   in.trackedInliers > p.minInliers;
-  // The same test on the direct points: the frame still tracks with them but sees too few of the reference
-  // keyframe's (a frame whose keypoints are too few to pass c2 is still mapped: its direct points carry it).
-  const bool c2direct = in.directSupported && in.directReferenceActive > 0 &&
-                        in.directReferenceInView < p.directRatio * in.directReferenceActive;
-  return (c1a || c1b) && (c2 || c2direct);
+  // The same test on a landmark module's landmarks (the direct points): the frame still tracks with them but sees
+  // too few of the reference keyframe's (a frame whose keypoints are too few to pass c2 is still mapped: the
+  // module carries it).
+  bool c2module = false;
+  for (const KeyFrameDecisionInput::ModuleCoverage& m : in.modules)
+    c2module = c2module || (m.carriedPose && m.referenceActive > 0 && m.referenceInView < p.directRatio * m.referenceActive);
+  return (c1a || c1b) && (c2 || c2module);
 }
 
 bool keyFrameUrgent(const KeyFrameDecisionInput& in, const KeyFrameDecisionParams& p) {

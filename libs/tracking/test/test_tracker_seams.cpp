@@ -12,6 +12,7 @@
 #include "pslam/core/Error.h"
 #include "pslam/manhattan/ManhattanTracker.h"
 #include "pslam/tracking/MapInitializer.h"
+#include "pslam/tracking/MonocularInitializer.h"
 #include "pslam/tracking/PoseSolver.h"
 #include "pslam/tracking/Tracker.h"
 

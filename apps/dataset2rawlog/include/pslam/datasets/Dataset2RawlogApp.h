@@ -1,6 +1,6 @@
 #pragma once
 // dataset2rawlog as a testable class: reads a dataset (TUM RGB-D, ICL-NUIM, KITTI odometry, EuRoC MAV, image
-// folder), writes `<out>/<name>.rawlog` + `<name>_Images/` (the rawlog contract, DESIGN.md §3) and
+// folder), writes `<out>/<name>.rawlog` + `<name>_Images/` (the rawlog contract, doc/architecture.md, "Data contracts") and
 // `<out>/<name>_groundtruth.txt` (TUM, camera-to-world, stamps equal to the CAMERA stamps). Nothing appears
 // under the final names unless the whole conversion succeeds.
 #include <cstddef>

@@ -14,7 +14,7 @@
 namespace pslam::manhattan {
 
 struct ManhattanEvalOptions {
-  std::filesystem::path rawlog;       ///< input rawlog (DESIGN.md §3)
+  std::filesystem::path rawlog;       ///< input rawlog (doc/architecture.md, "Data contracts")
   std::filesystem::path groundTruth;  ///< TUM file; default `<stem>_groundtruth.txt` beside the rawlog
   std::string normals = "rawlog";     ///< normals for the tracker: rawlog | depth | network
   std::string referenceNormals;       ///< optional second source; metrics of `normals` against it

@@ -14,7 +14,7 @@
 namespace pslam::features {
 
 struct MatchOracleOptions {
-  std::filesystem::path rawlog;       ///< input rawlog with DEPTH (DESIGN.md §3)
+  std::filesystem::path rawlog;       ///< input rawlog with DEPTH (doc/architecture.md, "Data contracts")
   std::filesystem::path groundTruth;  ///< TUM file; default `<stem>_groundtruth.txt` beside the rawlog
   std::filesystem::path config;       ///< SLAM ini: its [ORB] section sets the extractor (required)
   std::vector<std::string> overrides; ///< `Section.key=value`, as slam-run's --set

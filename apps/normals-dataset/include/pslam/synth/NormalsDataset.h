@@ -12,7 +12,7 @@
 // Outputs in <outDir>:
 //   train/, test/                <scenario>_s<seed>_<view>_image.png   8-bit grey CAMERA image
 //                                <scenario>_s<seed>_<view>_normal.png  8-bit, the NORMALS channel's encoding
-//                                                                      (DESIGN.md §3): OpenCV channels 0,1,2 =
+//                                                                      (doc/architecture.md, "Data contracts"): OpenCV channels 0,1,2 =
 //                                                                      camera x,y,z as round((n+1)/2*255)
 //                                <scenario>_s<seed>_<view>_mask.png    8-bit, 255 = planar pixel with a normal
 //                                manifest.csv                          one line per view: files, camera, draws

@@ -1,5 +1,5 @@
 #pragma once
-// The slam-run application: rawlog + ini (+ --set overrides) + seed + frame range -> the outputs of DESIGN.md §4
+// The slam-run application: rawlog + ini (+ --set overrides) + seed + frame range -> the outputs of doc/architecture.md, "Data contracts"
 // in an output folder, produced by driving the System façade (libs/system) frame by frame:
 //   trajectory.txt  every tracked frame (TUM, camera-to-world), System::trajectory()
 //   keyframes.txt   keyframe poses (TUM), System::keyFrameTrajectory()

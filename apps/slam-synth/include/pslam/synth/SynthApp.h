@@ -1,6 +1,6 @@
 #pragma once
 // The slam-synth application: renders a scenario and writes it as a rawlog following the contract
-// (DESIGN.md §3) with ground truth beside it.
+// (doc/architecture.md, "Data contracts") with ground truth beside it.
 //
 // Outputs in <outDir>:
 //   <name>.rawlog + <name>_Images/     CAMERA (grey), DEPTH (u16, scenario depth unit), SEMANTIC (one-hot,

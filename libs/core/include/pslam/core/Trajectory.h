@@ -25,6 +25,11 @@ struct StampedPose {
 
 using Trajectory = std::vector<StampedPose>;
 
+/// The same rigid transform as an MRPT pose and back, element for element (no re-orthonormalization, so a round
+/// trip Eigen -> CPose3D -> Eigen gives the same bits).
+mrpt::poses::CPose3D toCPose3D(const Eigen::Isometry3d& T);
+Eigen::Isometry3d toIsometry(const mrpt::poses::CPose3D& T);
+
 /// Whether a reader requires the stamps to be in time order.
 enum class StampOrder { Any, NonDecreasing };
 

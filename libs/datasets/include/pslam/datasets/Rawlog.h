@@ -1,5 +1,5 @@
 #pragma once
-// The rawlog contract (DESIGN.md §3): an observation-only MRPT rawlog (gz), images stored externally as
+// The rawlog contract (doc/architecture.md, "Data contracts"): an observation-only MRPT rawlog (gz), images stored externally as
 // lossless files in `<name>_Images/`. One frame = a CAMERA observation followed by the optional DEPTH,
 // SEMANTIC and NORMALS observations that share its timestamp.
 //

@@ -8,14 +8,16 @@
 //   - the keypoint model of §3.3 for every direct point (same KeypointModel and policy as the ORB points:
 //     heuristic / masking / probabilistic), with the matching accuracy of eq. 3.4-3.5 (exposure-normalized SSD of
 //     the 9-pixel pattern) and the class evidence of the SEMANTIC channel at the point;
-//   - tracking (tracking::DirectPointSource): the active points of the reference keyframe and the most recent
+//   - tracking (a tracking::LandmarkModule): the active points of the reference keyframe and the most recent
 //     keyframes join the frame's pose optimization with the photometric error of eq. 3.6 (PhotometricPoseFactor),
 //     coarse to fine; afterwards every point in view (active or not) is measured: optical flow from its host
 //     into the frame, re-triangulated against the host -> one depth update of its model (§3.4.2);
 //   - local BA (§3.4.3): the active points hosted in the BA window join it with PhotometricBAFactor in every
 //     other window keyframe that sees them; the refined inverse depths become the filter means.
 // Points live next to the map; map.slammap carries them as its extension "direct_points" (DirectStoreIO.cpp).
-// Everything is deterministic (ordered containers, fixed strides, no randomness).
+// Everything is deterministic (ordered containers, fixed strides, no randomness). Sources: DirectFrontEnd.cpp (the
+// store, the module's stages, measurements), DirectFactors.cpp (pose and BA factors), DirectPointCreation.cpp (new
+// points of a keyframe), DirectStoreIO.cpp (the map extension).
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -38,7 +40,7 @@
 #include "pslam/optimize/ImagePyramid.h"
 #include "pslam/optimize/PhotometricBAFactor.h"
 #include "pslam/optimize/PhotometricError.h"
-#include "pslam/tracking/DirectPointSource.h"
+#include "pslam/tracking/LandmarkModule.h"
 
 namespace pslam::direct {
 
@@ -123,6 +125,18 @@ struct DirectFeaturesParams {
   PSLAM_PARAMS("DirectFeatures")
 };
 
+/// What the direct points did in one frame (report.json "frames": direct_factors, direct_inliers, ...).
+struct DirectFrameCounts {
+  int factors = 0;    ///< active direct points that entered the frame's last pose optimization
+  int inliers = 0;    ///< ... that passed its chi-square test (Table 3.2, chi2_P)
+  int active = 0;     ///< direct points of the tracked hosts in view that the policy lets tracking use
+  int inactive = 0;   ///< ... that it does not (measured only)
+  int measured = 0;   ///< model updates applied in this frame (depth from optical flow + triangulation)
+  int referenceInView = 0;  ///< active points hosted in the reference keyframe that the frame sees
+  int referenceActive = 0;  ///< active points hosted in the reference keyframe
+  nlohmann::json toJson() const;
+};
+
 /// One direct map point: the photometric landmark (host pixel, bearing, inverse depth, host intensities) and its
 /// keypoint-model state (mu = inverse depth along the host's z axis, eq. 3.1) with the pose-optimization counters.
 struct DirectMapPoint {
@@ -156,21 +170,55 @@ struct DirectCreationReport {
   double pointsMs = 0.0;     ///< triangulation, host intensities and the keypoint models of the new points
 };
 
-class DirectFrontEnd : public tracking::DirectPointSource {
+class DirectFrontEnd : public tracking::LandmarkModule {
  public:
   /// Checks `params` and `pointModel` (pslam::Error naming the key).
   DirectFrontEnd(const DirectFeaturesParams& params, const landmarks::PointModelParams& pointModel,
                  const geometry::PinholeCamera& camera, double depthPixelNoise);
 
-  // ---- tracking::DirectPointSource ----
-  std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>> poseFactors(const tracking::Frame& frame,
-                                                                                 const map::Map& map,
-                                                                                 map::KeyFrameId reference) override;
+  // ---- tracking::LandmarkModule ----
+  std::string name() const override { return "direct"; }
+  /// The final (local-map) optimization of every frame; the earlier ones (motion model, reference keyframe) only
+  /// when the keypoints alone are too few to carry them, which saves most of their cost.
+  bool joins(const tracking::PoseAttempt& attempt) const override;
+  tracking::ModulePoseFactors poseFactors(const tracking::Frame& frame, const map::Map& map,
+                                          map::KeyFrameId reference) override;
   int coarsestLevel() const override { return params_.coarsestLevel; }
   int minInliers() const override { return params_.minTrackingInliers; }
-  tracking::DirectFrameCounts viewCounts() const override;
-  tracking::DirectFrameCounts afterTracking(const tracking::Frame& frame, const map::Map& map,
-                                            const std::vector<bool>& factorOutliers) override;
+  /// The photometric alignment can carry a frame whose keypoint matches are too few (§3.4.2).
+  bool tracksWithoutKeypoints() const override { return true; }
+  tracking::ModuleFrameReport afterTracking(const tracking::Frame& frame, const map::Map& map,
+                                            const std::vector<bool>& factorOutliers, bool learn) override;
+  void addKeyFrame(const tracking::KeyFrameImages& keyFrame) override;
+  /// New points of the keyframe at its refined pose (createPoints), then prune.
+  void afterLocalMapping(const map::Map& map, map::KeyFrameId kf, StageTimings& timings, nlohmann::json& log) override;
+  /// Photometric factors of the active points hosted in local-BA window keyframes (§3.4.3); the window's fixed
+  /// keyframes keep their affine brightness fixed.
+  std::vector<std::shared_ptr<optimize::BAFactor>> bundleAdjustmentFactors(const map::Map& map,
+                                                                          const optimize::BAProblem& problem) override;
+  void afterBundleAdjustment(const std::vector<bool>& factorOutliers) override {
+    applyBundleAdjustment(factorOutliers);
+  }
+  void reset() override;
+  std::map<std::string, std::size_t> counts() const override;
+  std::string mapExtensionName() const override { return kMapExtension; }
+  std::optional<std::string> mapExtension() const override;
+  std::function<void()> prepareLoad(const std::string& bytes, const map::Map& loaded) override;
+
+  // ---- tracking, as the module's stages call it ----
+  /// Photometric factors of the active direct points that `frame` sees at its current pose estimate
+  /// (frame.T_cam_world), hosted in `reference` and the most recent keyframes of `map`. Empty when there are none.
+  std::vector<std::shared_ptr<const optimize::PhotometricPoseFactor>> photometricFactors(const tracking::Frame& frame,
+                                                                                        const map::Map& map,
+                                                                                        map::KeyFrameId reference);
+  /// The view counts of the last photometricFactors() call (active, inactive, referenceInView, referenceActive;
+  /// the other fields 0), without changing any point: what a localization-only frame reports.
+  DirectFrameCounts viewCounts() const;
+  /// The frame was tracked (final pose in frame.T_cam_world; `factorOutliers` of the last optimization, per
+  /// factor of the last photometricFactors() call): updates the models of the points the frame measured. Returns
+  /// the frame's counts.
+  DirectFrameCounts afterTracking(const tracking::Frame& frame, const map::Map& map,
+                                  const std::vector<bool>& factorOutliers);
 
   // ---- mapping ----
   /// Registers keyframe `kf` with its (distorted, as in the rawlog) grey and SEMANTIC images; its affine
@@ -179,16 +227,11 @@ class DirectFrontEnd : public tracking::DirectPointSource {
   /// Selects direct points in keyframe `kf`, matches them into its best covisible keyframe with an image and
   /// creates the points that triangulate (§3.2.2, §3.4.1, §3.4.3).
   DirectCreationReport createPoints(const map::Map& map, map::KeyFrameId kf);
-  /// Photometric factors of the active points hosted in local-BA window keyframes (§3.4.3), for
-  /// optimize::BAProblem::factors; the window's fixed keyframes keep their affine brightness fixed.
-  std::vector<std::shared_ptr<optimize::BAFactor>> bundleAdjustmentFactors(const map::Map& map,
-                                                                          const optimize::BAProblem& problem);
   /// After local BA: the refined inverse depths become the filter means (§3.4.3); factors flagged as outliers
   /// count as misses of their points. Returns the points updated.
-  int afterBundleAdjustment(const std::vector<bool>& factorOutliers);
+  int applyBundleAdjustment(const std::vector<bool>& factorOutliers);
   /// Drops hosts whose keyframe left the map and images beyond keepImages.
   void prune(const map::Map& map);
-  void reset();
 
   /// The map extension that carries the direct points in map.slammap (map::Map::setExtension).
   static constexpr const char* kMapExtension = "direct_points";
@@ -210,9 +253,6 @@ class DirectFrontEnd : public tracking::DirectPointSource {
   const DirectFeaturesParams& params() const { return params_; }
   /// The world position of a point (its host must be in `map`).
   static Eigen::Vector3d worldPosition(const map::Map& map, const DirectMapPoint& point);
-  /// Per-frame affine brightness of the frame last prepared (for tests and reports).
-  optimize::AffineBrightness lastAffine() const { return frameAffine_; }
-  nlohmann::json summary() const;
 
  private:
   struct PointRef {
@@ -220,7 +260,7 @@ class DirectFrontEnd : public tracking::DirectPointSource {
     std::size_t index;
   };
   cv::Mat undistort(const cv::Mat& image, bool nearest) const;
-  void prepareFrame(const tracking::Frame& frame);
+  void prepareTrackedFrame(const tracking::Frame& frame);
   std::shared_ptr<optimize::ImagePyramid> hostPyramid(DirectHost& host) const;
   /// As MapPointModelPolicy::classEvidence: the SEMANTIC channel's probabilities at the pixel, or none.
   std::optional<landmarks::ClassVector> classEvidenceAt(const cv::Mat& semantic, const Eigen::Vector2d& pixel) const;

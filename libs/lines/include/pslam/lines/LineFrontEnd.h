@@ -3,7 +3,7 @@
 // keypoints exactly as the direct points are (pslam::direct::DirectFrontEnd):
 //   - extraction (LineExtractor): LSD on one level, the 40 longest segments, LBD descriptors, undistorted
 //     endpoints, once per frame (prepareFrame) and kept per keyframe;
-//   - tracking (tracking::LineSource): the map lines in front of the frame at its pose estimate are projected and
+//   - tracking (a tracking::LandmarkModule): the map lines in front of the frame at its pose estimate are projected and
 //     matched by projection + LBD (LineMatching.h); each match is a LinePoseFactor (eq. 2.59) of the frame's pose
 //     optimization; afterwards its inlier flag counts into the line's found / visible ratio, and the inlier
 //     matches of a frame that becomes a keyframe are that keyframe's observations;
@@ -34,7 +34,7 @@
 #include "pslam/lines/LineMatching.h"
 #include "pslam/map/Map.h"
 #include "pslam/optimize/BundleAdjustment.h"
-#include "pslam/tracking/LineSource.h"
+#include "pslam/tracking/LandmarkModule.h"
 
 namespace pslam::lines {
 
@@ -86,6 +86,16 @@ struct LinesParams {
   LineMatchParams trackingMatch() const { return {maxHamming, ratio, maxAngleDeg, maxDistance, minOverlap}; }
 };
 
+/// What the lines did in one frame (report.json "frames": lines_detected, lines_visible, lines_factors,
+/// lines_inliers).
+struct LineFrameCounts {
+  int detected = 0;  ///< segments extracted from the frame
+  int visible = 0;   ///< map lines projected into the frame at the last lineFactors() call
+  int factors = 0;   ///< matched lines that entered the frame's last pose optimization
+  int inliers = 0;   ///< ... that passed its chi-square test (5.991)
+  nlohmann::json toJson() const;
+};
+
 /// One map line: world endpoints (the BA block), the descriptor of its latest keyframe observation, the keyframe
 /// observations (keyframe -> segment index there) and the pose-optimization counters.
 struct MapLine {
@@ -113,21 +123,46 @@ struct LineCreationReport {
   double ms = 0.0;
 };
 
-class LineFrontEnd : public tracking::LineSource {
+class LineFrontEnd : public tracking::LandmarkModule {
  public:
   /// Checks `params` (pslam::Error naming the key).
   LineFrontEnd(const LinesParams& params, const geometry::PinholeCamera& camera);
 
-  /// Extracts the segments of `frame` (its grey image) once; poseFactors() does it when not done yet.
-  void prepareFrame(const tracking::Frame& frame);
-
-  // ---- tracking::LineSource ----
-  std::vector<std::shared_ptr<const optimize::PoseFactor>> poseFactors(const tracking::Frame& frame,
-                                                                       const map::Map& map,
-                                                                       map::KeyFrameId reference) override;
+  // ---- tracking::LandmarkModule ----
+  std::string name() const override { return "line"; }
+  /// LSD + LBD of the frame (stage "line_extraction").
+  void prepareFrame(const tracking::Frame& frame, StageTimings& timings) override;
+  /// The point-to-line factors of lineFactors().
+  tracking::ModulePoseFactors poseFactors(const tracking::Frame& frame, const map::Map& map,
+                                          map::KeyFrameId reference) override;
   int minInliers() const override { return params_.minTrackingInliers; }
-  tracking::LineFrameCounts afterTracking(const tracking::Frame& frame, const map::Map& map,
-                                          const std::vector<bool>& factorOutliers) override;
+  tracking::ModuleFrameReport afterTracking(const tracking::Frame& frame, const map::Map& map,
+                                            const std::vector<bool>& factorOutliers, bool learn) override;
+  void addKeyFrame(const tracking::KeyFrameImages& keyFrame) override;
+  /// New lines of the keyframe (createLines), then prune.
+  void afterLocalMapping(const map::Map& map, map::KeyFrameId kf, StageTimings& timings, nlohmann::json& log) override;
+  /// LineBAFactors of the lines with two or more observations in the window.
+  std::vector<std::shared_ptr<optimize::BAFactor>> bundleAdjustmentFactors(const map::Map& map,
+                                                                          const optimize::BAProblem& problem) override;
+  void afterBundleAdjustment(const std::vector<bool>& factorOutliers) override {
+    applyBundleAdjustment(factorOutliers);
+  }
+  void reset() override;
+  std::map<std::string, std::size_t> counts() const override;
+  std::string mapExtensionName() const override { return kMapExtension; }
+  std::optional<std::string> mapExtension() const override;
+  std::function<void()> prepareLoad(const std::string& bytes, const map::Map& loaded) override;
+
+  // ---- tracking, as the module's stages call it ----
+  /// Extracts the segments of `frame` (its grey image) once; lineFactors() does it when not done yet.
+  void prepareFrame(const tracking::Frame& frame);
+  /// Point-to-line factors (eq. 2.59) of the map lines matched in `frame` at its current pose estimate; empty when
+  /// there are none.
+  std::vector<std::shared_ptr<const optimize::PoseFactor>> lineFactors(const tracking::Frame& frame);
+  /// The frame was tracked (final pose in frame.T_cam_world); `factorOutliers` per factor of the last
+  /// lineFactors() call in the last pose optimization (empty when the lines did not take part): the lines'
+  /// found / visible counters and culling. Returns the frame's counts.
+  LineFrameCounts afterTracking(const tracking::Frame& frame, const std::vector<bool>& factorOutliers);
 
   // ---- mapping ----
   /// Registers keyframe `kf`: the segments of the frame last prepared and its inlier matches when
@@ -135,24 +170,18 @@ class LineFrontEnd : public tracking::LineSource {
   void addKeyFrame(map::KeyFrameId kf, const cv::Mat& grey, bool fromLastFrame);
   /// New lines of keyframe `kf` with its covisible keyframes (and observations of existing lines), then culling.
   LineCreationReport createLines(const map::Map& map, map::KeyFrameId kf);
-  /// LineBAFactors of the lines with two or more observations in the window (optimize::BAProblem::factors).
-  std::vector<std::shared_ptr<optimize::BAFactor>> bundleAdjustmentFactors(const map::Map& map,
-                                                                          const optimize::BAProblem& problem);
   /// After local BA: observations whose factor is an outlier are erased. Returns the lines refined.
-  int afterBundleAdjustment(const std::vector<bool>& factorOutliers);
+  int applyBundleAdjustment(const std::vector<bool>& factorOutliers);
   /// Drops keyframes that left the map (and their observations) and erases bad lines.
   void prune(const map::Map& map);
-  void reset();
 
   /// Lines that are not bad.
   std::size_t numLines() const;
   const std::map<std::uint64_t, MapLine>& lines() const { return lines_; }
   const std::map<map::KeyFrameId, LineKeyFrame>& keyFrames() const { return keyframes_; }
-  const LineFeatures& frameFeatures() const { return frameFeatures_; }
   /// Milliseconds of the last prepareFrame() extraction (LSD + LBD).
   double lastExtractionMs() const { return extractionMs_; }
   const LinesParams& params() const { return params_; }
-  nlohmann::json summary() const;
   // ---- saved with the map (Map extension "lines", format in LineStoreIO.cpp) ----
   /// The line store (keyframe segments and descriptors, lines with their observations and counters) as bytes.
   std::string serialize() const;

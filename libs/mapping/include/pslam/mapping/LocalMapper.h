@@ -24,7 +24,7 @@
 #include "pslam/map/Map.h"
 #include "pslam/map/PointUsePolicy.h"
 #include "pslam/mapping/MapPointModelPolicy.h"
-#include "pslam/mapping/ObservationRefiner.h"
+#include "pslam/optimize/BAFactorSource.h"
 #include "pslam/optimize/BundleAdjustment.h"
 #include "pslam/optimize/MapAdapter.h"
 #include "pslam/optimize/Params.h"
@@ -75,9 +75,6 @@ struct LocalMappingParams {
   // ---- LocalBundleAdjustment (maxLocalKeyFrames = N_lBA = 20, Table 3.2) ----
   bool localBundleAdjustment = true;
 
-  // ---- sub-pixel alignment of observations to their anchor patch, before local BA (ObservationRefiner) ----
-  ObservationRefinementParams refinement;
-
   // ---- set by the caller from their own sections (SlamParams copies them), not read from [LocalMapping] ----
   optimize::BundleAdjustmentParams ba;   ///< [BundleAdjustment]
   landmarks::PointModelParams pointModel;  ///< [PointModel]; default heuristic (ORB-SLAM*)
@@ -106,7 +103,6 @@ struct LocalMappingParams {
     PSLAM_FIELD(v, cullKeyFrames, anyValue, "KeyFrameCulling on/off");
     v.flat(culling);
     PSLAM_FIELD(v, localBundleAdjustment, anyValue, "local BA on/off");
-    PSLAM_NESTED(v, refinement);
     v.fromSection("BundleAdjustment", ba);
     v.fromSection("PointModel", pointModel);
   }
@@ -124,15 +120,14 @@ struct LocalMappingReport {
   int baObservationsErased = 0; ///< outlier observations removed after local BA
   int baPointsErased = 0;       ///< points that lost their last observation in local BA
   int landmarkUpdates = 0;      ///< keypoint-model depth updates (masking / probabilistic; 0 for heuristic)
-  RefinementCounts refinement;  ///< observations aligned to their anchor patch (ObservationRefiner)
   double baInitialRmsPixels = 0.0, baFinalRmsPixels = 0.0;
   /// Threaded mode: the tracker reset the map while a computation ran outside the map lock; the steps after it
   /// were not run (the keyframe belongs to a map that no longer exists).
   bool mapChanged = false;
   bool baStopped = false;  ///< local BA ended early by interruptBundleAdjustment
   // Timings per step (wall clock, ms).
-  double processMs = 0.0, cullPointsMs = 0.0, triangulationMs = 0.0, fusionMs = 0.0, refinementMs = 0.0,
-         localBaMs = 0.0, cullKeyFramesMs = 0.0, totalMs = 0.0;
+  double processMs = 0.0, cullPointsMs = 0.0, triangulationMs = 0.0, fusionMs = 0.0, localBaMs = 0.0,
+         cullKeyFramesMs = 0.0, totalMs = 0.0;
 };
 
 /// A keypoint pair proposed for triangulation: keypoint i1 of the first keyframe, i2 of the second.
@@ -181,21 +176,10 @@ class LocalMapper {
   /// Forgets the recent-point list (after the tracker cleared the map).
   void reset();
 
-  /// Other landmark kinds in local BA (§3.4.3: direct points; eq. 2.59: lines): `factors` adds factors to the
-  /// window's problem (BAProblem::factors; their keyframes must be window keyframes), `applied` gets their outlier
-  /// flags after the optimization, in the same order. Several kinds each add their own pair of hooks
-  /// (addBAFactorHooks); their factors follow one another in the order the hooks were added, and each `applied`
-  /// gets the flags of its own factors only. setBAFactorHooks replaces every pair by one. No hooks: keypoints only.
-  using BAFactorMaker = std::function<std::vector<std::shared_ptr<optimize::BAFactor>>(const map::Map&,
-                                                                                      const optimize::BAProblem&)>;
-  using BAFactorsApplied = std::function<void(const std::vector<bool>&)>;
-  void setBAFactorHooks(BAFactorMaker factors, BAFactorsApplied applied) {
-    baHooks_.clear();
-    addBAFactorHooks(std::move(factors), std::move(applied));
-  }
-  void addBAFactorHooks(BAFactorMaker factors, BAFactorsApplied applied) {
-    baHooks_.push_back({std::move(factors), std::move(applied)});
-  }
+  /// Other landmark kinds and priors in local BA (§3.4.3: direct points; eq. 2.59: lines; §4.4: Manhattan rotation
+  /// priors): each source adds its factors to the window's problem (BAProblem::factors) after those of the sources
+  /// added before, and gets the outlier flags of its own factors after the solve. None: keypoints only.
+  void addBAFactorSource(std::shared_ptr<optimize::BAFactorSource> source);
 
   /// Threaded mode (the System shares the map between tracking and this mapper under one lock held for the whole
   /// processKeyFrame call): `runner` runs a computation that reads no map data, only copies taken under the lock
@@ -211,10 +195,6 @@ class LocalMapper {
   /// Called (map lock held) once the keyframe's new points are in the map: after triangulation and fusion, before
   /// local BA. Threaded mode: tracking may go on from there.
   void setNewPointsReady(std::function<void(map::KeyFrameId)> callback) { newPointsReady_ = std::move(callback); }
-  /// Aligns the observations of each keyframe's points to their anchor patches after fusion, before the new points
-  /// are announced and local BA runs ([LocalMapping] refinement.enabled; the caller feeds it the keyframe images).
-  /// Null: no refinement.
-  void setObservationRefiner(std::shared_ptr<ObservationRefiner> refiner) { refiner_ = std::move(refiner); }
   /// How triangulation finds candidate keypoint pairs (default Guided; VocabularyNode when the keyframes carry the
   /// vocabulary's direct index, [Places] triangulation).
   void setTriangulationSearch(TriangulationSearch mode) { triangulationSearch_ = mode; }
@@ -248,15 +228,10 @@ class LocalMapper {
   LocalMappingParams params_;
   std::vector<map::MapPointId> recent_;
   int landmarkUpdates_ = 0;
-  struct BAHooks {
-    BAFactorMaker factors;
-    BAFactorsApplied applied;
-  };
-  std::vector<BAHooks> baHooks_;
+  std::vector<std::shared_ptr<optimize::BAFactorSource>> baSources_;
   OutsideMapLock outsideMapLock_;
   TriangulationSearch triangulationSearch_ = TriangulationSearch::Guided;
   std::function<void(map::KeyFrameId)> newPointsReady_;
-  std::shared_ptr<ObservationRefiner> refiner_;
   bool mapChanged_ = false;  ///< the map was reset while a computation ran outside the lock
   std::atomic<bool> stopBundleAdjustment_{false};
   /// Runs `computation` through outsideMapLock_ (or in place); false (and mapChanged_) when the map was reset.

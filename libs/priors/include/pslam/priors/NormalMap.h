@@ -1,5 +1,5 @@
 #pragma once
-// Dense camera-frame normal maps (the NORMALS channel of the rawlog contract, DESIGN.md §3) and the
+// Dense camera-frame normal maps (the NORMALS channel of the rawlog contract, doc/architecture.md) and the
 // normal-accuracy metrics of thesis §4.5.3 (eqs. 4.3-4.7).
 #include <array>
 #include <cstddef>
@@ -29,6 +29,11 @@ cv::Mat decodeNormalMap(const cv::Mat& normals8u, const std::string& context = "
 
 /// Collects the valid normals of a CV_32FC3 map, taking every `stride`-th pixel in both directions.
 std::vector<Eigen::Vector3d> collectNormals(const cv::Mat& normals32f, int stride = 1);
+
+/// The valid normals of every `stride`-th pixel of a NORMALS channel (CV_8UC3): the same normals in the same order
+/// as collectNormals(decodeNormalMap(normals8u), stride), decoding only the pixels taken. Throws pslam::Error
+/// naming `context` on a wrong type or a stride < 1.
+std::vector<Eigen::Vector3d> sampleNormals(const cv::Mat& normals8u, int stride, const std::string& context);
 
 /// Summary of per-normal angular errors (thesis eqs. 4.3-4.7), angles in degrees.
 struct NormalAccuracy {

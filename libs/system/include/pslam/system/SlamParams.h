@@ -1,5 +1,5 @@
 #pragma once
-// All parameters of a SLAM run, one ini section per component (DESIGN.md §5); keys are the field names of
+// All parameters of a SLAM run, one ini section per component (doc/architecture.md); keys are the field names of
 // each struct (pslam/core/Params.h), tables in doc/slam.md:
 //   [ORB] features::OrbParams   [Initializer] tracking::InitializerParams   [Tracking] tracking::TrackerParams
 //   [PoseOptimization] optimize::PoseOptimizationParams   [BundleAdjustment] optimize::BundleAdjustmentParams
@@ -74,8 +74,7 @@ struct SlamParams {
   tracking::TrackerParams tracking;
   optimize::PoseOptimizationParams poseOptimization;
   optimize::BundleAdjustmentParams bundleAdjustment;
-  /// [LocalMapping]; mapping.ba and mapping.pointModel are copies of [BundleAdjustment] and [PointModel]
-  /// (loadFromConfigFile and SlamSystem set them).
+  /// [LocalMapping] (its ba and pointModel are not read from it: localMapping() fills them from their sections).
   mapping::LocalMappingParams mapping;
   landmarks::PointModelParams pointModel;  ///< default heuristic (ORB-SLAM*)
   SystemParams system;
@@ -110,6 +109,11 @@ struct SlamParams {
   void check() const;
   /// Effective configuration as ini text (for the run report); it reloads to equal parameters.
   std::string toIniText() const;
+  /// What the local mapper runs with: [LocalMapping] with [BundleAdjustment] and [PointModel] (the one place they
+  /// are copied), and minTriangulationNeighbours 2 with direct points when the config leaves it 0 (a keyframe
+  /// tracked by direct points alone shares no keypoint with the map: it triangulates with the two most recent
+  /// keyframes).
+  mapping::LocalMappingParams localMapping() const;
 };
 
 /// Loads and checks an ini file after applying `overrides` (`Section.key=value`, as from a CLI `--set`, later

@@ -33,7 +33,7 @@ struct Frame {
   /// BoW vector and direct index in the run's vocabulary; computed on demand (relocalization, reference tracking).
   places::BowVector bow;
   places::FeatureVector bowFeatures;
-  // Other channels of the rawlog frame (DESIGN.md §3), registered to the raw image; empty when absent.
+  // Other channels of the rawlog frame (doc/architecture.md, "Data contracts"), registered to the raw image; empty when absent.
   cv::Mat grey;             ///< CV_8UC1 image the keypoints were extracted from (direct features, §3.3)
   cv::Mat semantic;         ///< SEMANTIC, CV_8UC3 P(static, dynamic, invalid) x 255 (direct points' class evidence)
   cv::Mat normals;          ///< NORMALS, CV_8UC3 (Manhattan frame, §4.4)

@@ -1,6 +1,7 @@
 #pragma once
 // ORB-SLAM's Tracking::NeedNewKeyFrame for a monocular camera (thesis §2.4.1).
 #include <cstddef>
+#include <vector>
 
 #include "pslam/core/Params.h"
 
@@ -18,10 +19,14 @@ struct KeyFrameDecisionInput {
   /// Threaded live mode ([System] weakKeyFrameInliers; 0 in the sequential mode = ORB-SLAM's rule): a frame with
   /// fewer inliers than this needs a keyframe whatever the reference keyframe's count (see needNewKeyFrame).
   int weakInliers = 0;
-  // Direct points (§3.4.3: "we only consider active points ... in the decision"); all 0 without them.
-  bool directSupported = false;       ///< the direct points alone carried the pose (enough inliers)
-  int directReferenceInView = 0;      ///< active points hosted in the reference keyframe that the frame sees
-  int directReferenceActive = 0;      ///< active points hosted in the reference keyframe
+  /// Each landmark module that hosts landmarks in keyframes (the direct points; §3.4.3: "we only consider active
+  /// points ... in the decision"); empty without modules.
+  struct ModuleCoverage {
+    bool carriedPose = false;  ///< the module's inliers alone would carry the pose (LandmarkModule::minInliers)
+    int referenceInView = 0;   ///< active landmarks hosted in the reference keyframe that the frame sees
+    int referenceActive = 0;   ///< active landmarks hosted in the reference keyframe
+  };
+  std::vector<ModuleCoverage> modules;
 };
 
 struct KeyFrameDecisionParams {
@@ -47,7 +52,8 @@ struct KeyFrameDecisionParams {
     PSLAM_FIELD(v, refRatio, inLeftOpen(0, 1), "monocular thRefRatio");
     PSLAM_FIELD(v, minInliers, atLeast(0), "the frame must still track more than this");
     PSLAM_FIELD(v, directRatio, inClosed(0, 1),
-                "direct points: a keyframe when the frame sees fewer than this share of the reference's active ones");
+                "landmark modules (direct points): a keyframe when the frame sees fewer than this share of the reference "
+                "keyframe's active ones");
     PSLAM_FIELD(v, waitRatio, inClosed(0, 1),
                 "threaded: wait for mapping when a needed keyframe waits and the frame tracks fewer than this share "
                 "of the reference keyframe's points (0 = never)");

@@ -1,0 +1,16 @@
+# run(<what> <command> [args...]): runs a command of a cmake -P test script in ${RUN_IN} (default ${WORK_DIR}),
+# stops the script with its output when it fails, prints how long it took, and leaves its stdout in RUN_OUTPUT.
+function(run what)
+  string(TIMESTAMP t0 "%s")
+  if(NOT RUN_IN)
+    set(RUN_IN "${WORK_DIR}")
+  endif()
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err WORKING_DIRECTORY "${RUN_IN}")
+  string(TIMESTAMP t1 "%s")
+  math(EXPR dt "${t1} - ${t0}")
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${what} failed (exit ${rc}):\n  ${ARGN}\n--- stdout\n${out}\n--- stderr\n${err}")
+  endif()
+  message(STATUS "${what}: ok (${dt} s)")
+  set(RUN_OUTPUT "${out}" PARENT_SCOPE)
+endfunction()
