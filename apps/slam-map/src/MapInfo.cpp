@@ -78,7 +78,7 @@ MapInfo mapInfo(const map::Map& map, const fs::path& file) {
   info.vocabulary = map.vocabulary();
   for (const auto& [name, bytes] : map.extensions()) info.extensions[name] = bytes.size();
   if (const std::string* store = map.extension(lines::LineFrontEnd::kMapExtension); store && !map.keyFrames().empty()) {
-    const map::CameraIntrinsics& c = map.keyFrames().begin()->second.camera;
+    const geometry::PinholeCamera& c = map.keyFrames().begin()->second.camera;
     lines::LineFrontEnd front(lines::LinesParams{}, geometry::PinholeCamera(c.fx, c.fy, c.cx, c.cy, c.width, c.height));
     try {
       front.restore(*store, map);

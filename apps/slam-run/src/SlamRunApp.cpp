@@ -47,13 +47,6 @@ void writeMapPointDepths(const map::Map& map, const AtomicOutput& output) {
   });
 }
 
-std::string describe(const map::CameraIntrinsics& c) {
-  std::ostringstream os;
-  os.precision(10);
-  os << "fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy << ", " << c.width << "x" << c.height;
-  return os.str();
-}
-
 /// The camera of a rawlog frame as System::track() takes it (intrinsics checked against the image size).
 geometry::PinholeCamera cameraOfFrame(const datasets::Frame& f, const std::filesystem::path& rawlog) {
   const std::string ctx = rawlog.string() + ": frame " + std::to_string(f.index);
@@ -210,10 +203,10 @@ SlamRunSummary SlamRunApp::run() {
     datasets::Frame first;
     require(firstReader.next(first), options_.rawlog.string(), "rawlog has no CAMERA frame");
     const geometry::PinholeCamera cam = cameraOfFrame(first, options_.rawlog);
-    const map::CameraIntrinsics mapCamera = loaded->keyFrames().begin()->second.camera;
-    require(tracking::toIntrinsics(cam) == mapCamera, options_.mapIn.string(),
-            "map camera (" + describe(mapCamera) + ") differs from the camera of " + options_.rawlog.string() +
-                " (" + describe(tracking::toIntrinsics(cam)) + ")");
+    const geometry::PinholeCamera mapCamera = loaded->keyFrames().begin()->second.camera;
+    require(cam.withoutDistortion() == mapCamera, options_.mapIn.string(),
+            "map camera (" + mapCamera.describe() + ") differs from the camera of " + options_.rawlog.string() +
+                " (" + cam.withoutDistortion().describe() + ")");
     so.camera = cam;
     slam.emplace(params, so);
     slam->setMappingEnabled(!options_.localization);

@@ -35,7 +35,7 @@ DirectFrontEnd::DirectFrontEnd(const DirectFeaturesParams& params, const landmar
   params_.check();
   pointModel_.check();
   require(depthPixelNoise > 0.0, "DirectFrontEnd", "depthPixelNoise must be > 0");
-  intrinsics_ = tracking::toIntrinsics(camera);
+  intrinsics_ = camera.withoutDistortion();
   policy_ = landmarks::makeMapPointPolicy(pointModel_.policy, keypointModel_);
   for (double d : camera.distortion) distorted_ = distorted_ || d != 0.0;
   if (distorted_) {

@@ -117,7 +117,7 @@ DirectCreationReport DirectFrontEnd::createPoints(const map::Map& map, map::KeyF
   const Eigen::Isometry3d T_partner_host = pkf.T_cam_world * kf.T_world_cam();
   std::vector<cv::Point2f> from, guesses;
   for (const Eigen::Vector2d& px : pixels) {
-    const Eigen::Vector3d ray = intrinsics_.bearing(px);
+    const Eigen::Vector3d ray = intrinsics_.unprojectToBearing(px);
     const double z = cellDepth[static_cast<std::size_t>(cellOf(px))];
     const Eigen::Vector3d pc = T_partner_host * (ray / ray.z() * z);
     const Eigen::Vector2d g = pc.z() > 0.0 ? intrinsics_.project(pc) : px;

@@ -80,7 +80,7 @@ std::map<map::KeyFrameId, DirectHost> DirectFrontEnd::parse(const std::string& b
     const auto id = r.get<std::uint64_t>("host keyframe");
     const std::string ctx = "host keyframe " + std::to_string(id);
     if (!map.hasKeyFrame(id)) r.fail(ctx + " is not in the map");
-    const map::CameraIntrinsics& camera = map.keyFrame(id).camera;
+    const geometry::PinholeCamera& camera = map.keyFrame(id).camera;
     DirectHost host;
     host.affine.a = r.finite("affine a");
     host.affine.b = r.finite("affine b");
@@ -100,7 +100,7 @@ std::map<map::KeyFrameId, DirectHost> DirectFrontEnd::parse(const std::string& b
       if (l->pixel.x() < 0 || l->pixel.y() < 0 || l->pixel.x() > camera.width - 1 || l->pixel.y() > camera.height - 1)
         r.fail(pointCtx + ": pixel outside the keyframe's image");
       if (std::abs(l->bearing.norm() - 1.0) > 1e-9) r.fail(pointCtx + ": bearing is not a unit vector");
-      if ((camera.bearing(l->pixel) - l->bearing).norm() > 1e-9)
+      if ((camera.unprojectToBearing(l->pixel) - l->bearing).norm() > 1e-9)
         r.fail(pointCtx + ": bearing does not go through its pixel");
       if (!(l->inverseDepth > 0.0)) r.fail(pointCtx + ": inverse depth <= 0");
       const std::uint64_t levels = r.count("levels", kMaxLevels);

@@ -59,7 +59,7 @@ map::KeyFrameId addKeyFrame(map::Map& map, double x, std::vector<Eigen::Vector3d
   map::KeyFrame kf;
   kf.timestamp = x;
   kf.T_cam_world = poseAt(x);
-  kf.camera = tracking::toIntrinsics(testCamera());
+  kf.camera = testCamera().withoutDistortion();
   kf.setPyramid(1, 1.2);
   std::mt19937 rng(static_cast<unsigned>(x * 1000));
   std::vector<cv::Mat> rows;
@@ -102,7 +102,7 @@ tracking::Frame frameAt(double x, std::size_t index, const cv::Mat& semantic = c
   tracking::Frame f;
   f.index = index;
   f.timestamp = static_cast<double>(index);
-  f.camera = tracking::toIntrinsics(testCamera());
+  f.camera = testCamera().withoutDistortion();
   f.grey = viewAt(x);
   f.semantic = semantic;
   f.T_cam_world = poseAt(x);

@@ -96,6 +96,31 @@ void PinholeCamera::check() const {
   }
 }
 
+void PinholeCamera::check(const std::string& context) const {
+  require(std::isfinite(fx) && fx > 0.0 && std::isfinite(fy) && fy > 0.0, context,
+          "focal lengths fx, fy must be finite and positive");
+  require(std::isfinite(cx) && std::isfinite(cy), context, "principal point cx, cy must be finite");
+  require(width > 0 && height > 0, context, "image width and height must be positive");
+}
+
+PinholeCamera PinholeCamera::withoutDistortion() const {
+  PinholeCamera c = *this;
+  c.distortion.fill(0.0);
+  return c;
+}
+
+std::string PinholeCamera::describe() const {
+  std::ostringstream os;
+  os.precision(10);
+  os << "fx " << fx << ", fy " << fy << ", cx " << cx << ", cy " << cy << ", " << width << "x" << height;
+  return os.str();
+}
+
+bool PinholeCamera::operator==(const PinholeCamera& o) const {
+  return fx == o.fx && fy == o.fy && cx == o.cx && cy == o.cy && width == o.width && height == o.height &&
+         distortion == o.distortion;
+}
+
 bool PinholeCamera::hasDistortion() const {
   return std::any_of(distortion.begin(), distortion.end(), [](double d) { return d != 0.0; });
 }
@@ -116,11 +141,6 @@ cv::Mat PinholeCamera::cvK() const { return (cv::Mat_<double>(3, 3) << fx, 0.0, 
 
 cv::Mat PinholeCamera::cvDistortion() const {
   return (cv::Mat_<double>(1, 5) << distortion[0], distortion[1], distortion[2], distortion[3], distortion[4]);
-}
-
-Eigen::Vector2d PinholeCamera::project(const Eigen::Vector3d& X_cam) const {
-  const double invZ = 1.0 / X_cam.z();
-  return {fx * X_cam.x() * invZ + cx, fy * X_cam.y() * invZ + cy};
 }
 
 Eigen::Vector2d PinholeCamera::project(const Eigen::Vector3d& X_cam, Eigen::Matrix<double, 2, 3>& jacobian) const {

@@ -7,7 +7,7 @@
 namespace pslam::lines {
 
 LinePoseFactor::LinePoseFactor(const Line3& line, const Eigen::Vector2d& observedStart,
-                               const Eigen::Vector2d& observedEnd, const map::CameraIntrinsics& camera,
+                               const Eigen::Vector2d& observedEnd, const geometry::PinholeCamera& camera,
                                double pixelSigma)
     : world_(line), camera_(camera), invSigma_(1.0 / pixelSigma) {
   require(pixelSigma > 0.0 && std::isfinite(pixelSigma), "LinePoseFactor", "pixelSigma must be > 0");
@@ -104,7 +104,7 @@ bool LineEndpointsManifold::MinusJacobian(const double* x, double* jacobian) con
 
 LineBAFactor::LineBAFactor(std::shared_ptr<LineLandmark> landmark, map::KeyFrameId keyframe,
                            const Eigen::Vector2d& observedStart, const Eigen::Vector2d& observedEnd,
-                           const map::CameraIntrinsics& camera, double pixelSigma)
+                           const geometry::PinholeCamera& camera, double pixelSigma)
     : landmark_(std::move(landmark)), keyframe_(keyframe) {
   require(landmark_ != nullptr, "LineBAFactor", "null landmark");
   require(pixelSigma > 0.0 && std::isfinite(pixelSigma), "LineBAFactor", "pixelSigma must be > 0");

@@ -26,7 +26,7 @@ std::vector<std::size_t> evenSubset(std::size_t n, std::size_t cap) {
 }  // namespace
 
 LineFrontEnd::LineFrontEnd(const LinesParams& params, const geometry::PinholeCamera& camera)
-    : params_(params), intrinsics_(tracking::toIntrinsics(camera)), extractor_(params.extractor, camera) {
+    : params_(params), intrinsics_(camera.withoutDistortion()), extractor_(params.extractor, camera) {
   params_.check();
 }
 

@@ -9,7 +9,7 @@ Eigen::Vector3d imageLine(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return l / l.head<2>().norm();
 }
 
-LineTriangulation triangulateLine(const map::CameraIntrinsics& camera, const Eigen::Isometry3d& T_cam1_world,
+LineTriangulation triangulateLine(const geometry::PinholeCamera& camera, const Eigen::Isometry3d& T_cam1_world,
                                   const Eigen::Vector2d& a1, const Eigen::Vector2d& b1,
                                   const Eigen::Isometry3d& T_cam2_world, const Eigen::Vector2d& a2,
                                   const Eigen::Vector2d& b2, const LineTriangulationParams& params) {

@@ -99,8 +99,7 @@ TEST(LineExtractor, EndpointsAreUndistorted) {
 
 TEST(LineExtractor, RenderedCorridorHasItsLines) {
   const synth::Scenario sc = synth::makeScenario("corridor", 1, 2.0);
-  synth::PinholeCamera cam;
-  const synth::Renderer renderer(cam, synth::RenderOptions{});
+  const synth::Renderer renderer(synth::defaultRenderCamera(), synth::RenderOptions{});
   const synth::RenderedView view = renderer.render(sc.scene, sc.T_world_cam(0.0), 0.0);
   cv::Mat grey;
   view.radiance.convertTo(grey, CV_8U);

@@ -14,8 +14,8 @@ using namespace pslam;
 using namespace pslam::lines;
 
 namespace {
-map::CameraIntrinsics anisotropicIntrinsics() {
-  map::CameraIntrinsics c;
+geometry::PinholeCamera anisotropicIntrinsics() {
+  geometry::PinholeCamera c;
   c.fx = 520;
   c.fy = 510;
   c.cx = 320;
@@ -44,7 +44,7 @@ std::vector<Line3> randomLines(int n, std::mt19937& rng) {
 }  // namespace
 
 TEST(LineFactors, ResidualIsTheEndpointDistanceToTheObservedLine) {
-  const map::CameraIntrinsics cam = anisotropicIntrinsics();
+  const geometry::PinholeCamera cam = anisotropicIntrinsics();
   const Line3 line{{-0.5, 0.1, 3.0}, {0.6, -0.2, 4.0}};
   const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   // Observed: the true projection shifted 3 px along the normal of the segment, other endpoints along the line.
@@ -64,7 +64,7 @@ TEST(LineFactors, ResidualIsTheEndpointDistanceToTheObservedLine) {
 }
 
 TEST(LineFactors, PoseJacobianMatchesCentralDifferences) {
-  const map::CameraIntrinsics cam = anisotropicIntrinsics();
+  const geometry::PinholeCamera cam = anisotropicIntrinsics();
   std::mt19937 rng(7);
   const Eigen::Isometry3d T = pose({0.05, -0.1, 0.02}, {0.1, -0.05, 0.2});
   for (const Line3& line : randomLines(20, rng)) {
@@ -91,7 +91,7 @@ TEST(LineFactors, PoseJacobianMatchesCentralDifferences) {
 }
 
 TEST(LineFactors, BACostPassesTheGradientChecker) {
-  const map::CameraIntrinsics cam = anisotropicIntrinsics();
+  const geometry::PinholeCamera cam = anisotropicIntrinsics();
   std::mt19937 rng(3);
   const Eigen::Isometry3d T = pose({-0.03, 0.08, 0.01}, {0.2, 0.1, -0.1});
   for (const Line3& line : randomLines(10, rng)) {
@@ -151,7 +151,7 @@ TEST(LineFactors, EndpointManifoldMovesPerpendicularToTheLine) {
 }
 
 TEST(LineFactors, PoseFromLinesAloneRecoversTheTruePose) {
-  const map::CameraIntrinsics cam = anisotropicIntrinsics();
+  const geometry::PinholeCamera cam = anisotropicIntrinsics();
   std::mt19937 rng(11);
   const Eigen::Isometry3d truth = pose({0.02, -0.04, 0.01}, {0.05, 0.02, -0.03});
   std::vector<std::shared_ptr<const optimize::PoseFactor>> factors;
@@ -179,7 +179,7 @@ TEST(LineFactors, PoseFromLinesAloneRecoversTheTruePose) {
 
 TEST(LineFactors, LocalBundleAdjustmentRefinesLinesAndAPose) {
   // Three keyframes, the first two fixed, the third perturbed; keypoints pin the gauge, lines are perturbed.
-  const map::CameraIntrinsics cam = anisotropicIntrinsics();
+  const geometry::PinholeCamera cam = anisotropicIntrinsics();
   std::mt19937 rng(5);
   const std::vector<Eigen::Isometry3d> truth{pose({0, 0, 0}, {0, 0, 0}), pose({0, 0.05, 0}, {-0.3, 0, 0}),
                                              pose({0.02, -0.04, 0}, {0.25, 0.1, 0.05})};

@@ -23,7 +23,7 @@ class LineFrontEndTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     scenario_ = new synth::Scenario(synth::makeScenario("room", 1, 10.0));
-    const synth::Renderer renderer(synth::PinholeCamera{}, synth::RenderOptions{});
+    const synth::Renderer renderer(synth::defaultRenderCamera(), synth::RenderOptions{});
     for (double t : {0.0, 0.5, 1.0}) {
       const Eigen::Isometry3d T_world_cam = scenario_->T_world_cam(t);
       const synth::RenderedView v = renderer.render(scenario_->scene, T_world_cam, t);
@@ -44,7 +44,7 @@ class LineFrontEndTest : public ::testing::Test {
     map::KeyFrame kf;
     kf.timestamp = t;
     kf.T_cam_world = v.T_cam_world;
-    kf.camera = tracking::toIntrinsics(camera());
+    kf.camera = camera().withoutDistortion();
     kf.descriptors = cv::Mat(0, 32, CV_8U);
     kf.setPyramid(1, 1.2);
     return m.addKeyFrame(kf);
@@ -62,7 +62,7 @@ class LineFrontEndTest : public ::testing::Test {
     f.index = index;
     f.timestamp = static_cast<double>(index);
     f.grey = v.grey;
-    f.camera = tracking::toIntrinsics(camera());
+    f.camera = camera().withoutDistortion();
     f.T_cam_world = v.T_cam_world;
     f.hasPose = true;
     return f;
@@ -91,7 +91,7 @@ TEST_F(LineFrontEndTest, TriangulatesLinesOnTheRenderedSurfacesAndTracksThem) {
   for (const auto& [id, l] : fe.lines()) {
     for (const Eigen::Vector3d& X : {l.landmark->line().start, l.landmark->line().end}) {
       const Eigen::Vector3d pc = views_[2].T_cam_world * X;
-      const Eigen::Vector2d uv = tracking::toIntrinsics(camera()).project(pc);
+      const Eigen::Vector2d uv = camera().withoutDistortion().project(pc);
       const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
       if (u < 2 || v < 2 || u >= 638 || v >= 478) continue;
       ++total;

@@ -9,8 +9,8 @@ using namespace pslam;
 using namespace pslam::lines;
 
 namespace {
-map::CameraIntrinsics intrinsics() {
-  map::CameraIntrinsics c;
+geometry::PinholeCamera intrinsics() {
+  geometry::PinholeCamera c;
   c.fx = c.fy = 500;
   c.cx = 320;
   c.cy = 240;
@@ -39,7 +39,7 @@ TEST(LineGeometry, ImageLineGivesSignedPixelDistances) {
 }
 
 TEST(LineGeometry, TriangulationRecoversTheGroundTruthLine) {
-  const map::CameraIntrinsics cam = intrinsics();
+  const geometry::PinholeCamera cam = intrinsics();
   const Line3 truth{{-0.8, -0.3, 4.0}, {0.9, 0.4, 5.0}};
   const Eigen::Isometry3d T1 = poseAt({0, 0, 0}, {0, 0, 0});
   const Eigen::Isometry3d T2 = poseAt({0.3, -0.2, 0.1}, {0.02, -0.05, 0.01});
@@ -55,7 +55,7 @@ TEST(LineGeometry, TriangulationRecoversTheGroundTruthLine) {
 }
 
 TEST(LineGeometry, TriangulationWithPixelNoiseStaysNearTheLine) {
-  const map::CameraIntrinsics cam = intrinsics();
+  const geometry::PinholeCamera cam = intrinsics();
   const Line3 truth{{-1.0, 0.5, 3.0}, {1.0, 0.2, 3.5}};
   const Eigen::Isometry3d T1 = poseAt({0, 0, 0}, {0, 0, 0});
   const Eigen::Isometry3d T2 = poseAt({0.0, -0.4, 0.0}, {0.03, 0, 0});
@@ -68,7 +68,7 @@ TEST(LineGeometry, TriangulationWithPixelNoiseStaysNearTheLine) {
 }
 
 TEST(LineGeometry, TriangulationRejectsDegenerateConfigurations) {
-  const map::CameraIntrinsics cam = intrinsics();
+  const geometry::PinholeCamera cam = intrinsics();
   const Eigen::Isometry3d T1 = poseAt({0, 0, 0}, {0, 0, 0});
   // A line parallel to the baseline lies in the epipolar planes: both views span the same plane.
   const Line3 alongBaseline{{-1.0, 0.3, 4.0}, {1.0, 0.3, 4.0}};

@@ -257,7 +257,7 @@ double outlierRatio(const map::Map& map, KeyFrameId firstKeyFrame, double chi2) 
       if (id != map::kNoMapPoint && map.hasMapPoint(id) && !map.mapPoint(id).bad) points.insert(id);
   std::map<KeyFrameId, geometry::PinholeCamera> cameras;
   const auto cameraOf = [&](const KeyFrame& kf) -> const geometry::PinholeCamera& {
-    const map::CameraIntrinsics& c = kf.camera;
+    const geometry::PinholeCamera& c = kf.camera;
     return cameras.try_emplace(kf.id, c.fx, c.fy, c.cx, c.cy, c.width, c.height).first->second;
   };
   constexpr double kHuberDelta = 2.448;  // Table 3.2 delta_R

@@ -6,13 +6,6 @@
 
 namespace pslam::map {
 
-void CameraIntrinsics::check(const std::string& context) const {
-  require(std::isfinite(fx) && fx > 0.0 && std::isfinite(fy) && fy > 0.0, context,
-          "focal lengths fx, fy must be finite and positive");
-  require(std::isfinite(cx) && std::isfinite(cy), context, "principal point cx, cy must be finite");
-  require(width > 0 && height > 0, context, "image width and height must be positive");
-}
-
 void KeyFrame::setPyramid(int numLevels, double scaleFactor) {
   require(numLevels >= 1, "KeyFrame::setPyramid", "numLevels must be >= 1");
   require(std::isfinite(scaleFactor) && scaleFactor >= 1.0, "KeyFrame::setPyramid", "scaleFactor must be >= 1");

@@ -8,7 +8,7 @@
 
 namespace pslam::map::testing {
 
-inline CameraIntrinsics testCamera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
+inline geometry::PinholeCamera testCamera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
 
 struct SyntheticScene {
   std::vector<Eigen::Vector3d> points;                 // world positions, by scene index
@@ -39,7 +39,7 @@ inline Map buildSyntheticMap(int numKeyFrames, int numPoints, SyntheticScene& sc
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> ux(-3.0, 4.0), uy(-2.0, 2.0), uz(4.0, 9.0);
   std::uniform_int_distribution<int> byte(0, 255), level(0, 7), bit(0, 255);
-  const CameraIntrinsics cam = testCamera();
+  const geometry::PinholeCamera cam = testCamera();
   scene.points.clear();
   std::vector<cv::Mat> baseDesc;
   for (int i = 0; i < numPoints; ++i) {

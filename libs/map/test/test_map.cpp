@@ -187,7 +187,7 @@ TEST(Map, FuseDuplicatesMovesObservations) {
   // Two keyframes, each with two keypoints on the same world point: one point per keyframe pair
   // creates a duplicate situation in keyframe 1 and a disjoint one in keyframe 2.
   Map map;
-  const CameraIntrinsics cam = testCamera();
+  const pslam::geometry::PinholeCamera cam = testCamera();
   std::vector<KeyFrameId> kfs;
   for (int f = 0; f < 3; ++f) {
     KeyFrame kf;

@@ -218,8 +218,8 @@ std::vector<MapPointId> LocalMapper::createNewMapPoints(KeyFrameId kfId) {
       const cv::KeyPoint& kp1 = kf1.keypoints[m.i1];
       const cv::KeyPoint& kp2 = kf2.keypoints[m.i2];
       // Parallax of the two rays (ORB-SLAM cosParallaxRays): too small and the DLT is ill-conditioned.
-      const Eigen::Vector3d ray1 = R1.transpose() * kf1.camera.bearing(kf1.pixel(m.i1));
-      const Eigen::Vector3d ray2 = R2.transpose() * kf2.camera.bearing(kf2.pixel(m.i2));
+      const Eigen::Vector3d ray1 = R1.transpose() * kf1.camera.unprojectToBearing(kf1.pixel(m.i1));
+      const Eigen::Vector3d ray2 = R2.transpose() * kf2.camera.unprojectToBearing(kf2.pixel(m.i2));
       const double cosParallaxRays = ray1.dot(ray2);
       if (!(cosParallaxRays > 0.0 && cosParallaxRays < params_.maxParallaxCos)) continue;
       Eigen::Vector3d X;

@@ -64,7 +64,7 @@ bool MapPointModelPolicy::observe(const map::Map& map, map::MapPoint& p, const m
     const Eigen::Vector3d t_ref_cur = anchor.T_cam_world * cameraCentre;
     if (X_anchor.z() > 0.0 && t_ref_cur.norm() > 0.0) {
       const landmarks::DepthUncertainty tau = landmarks::depthUncertainty(
-          anchor.camera.bearing(anchorPixel), X_anchor.norm(), t_ref_cur, anchor.camera.fx, depthPixelNoise_);
+          anchor.camera.unprojectToBearing(anchorPixel), X_anchor.norm(), t_ref_cur, anchor.camera.fx, depthPixelNoise_);
       if (tau.valid && tau.tau2InverseDepth() > 0.0) {
         keypointModel_.observe(state, 1.0 / X_anchor.z(), tau.tau2InverseDepth(), alpha, classes);
         updated = true;

@@ -13,7 +13,7 @@ using map::KeyFrame;
 using map::KeyFrameId;
 using map::MapPointId;
 
-inline map::CameraIntrinsics camera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
+inline geometry::PinholeCamera camera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
 
 struct Scene {
   std::vector<Eigen::Vector3d> points;

@@ -120,7 +120,7 @@ TEST(LocalMapper, TriangulatesNewPointsAtTheTruthAnchoredInTheNewKeyFrame) {
     // Inverse-depth anchoring (eq. 3.1): rho = 1 / distance from the anchor centre, bearing = keypoint ray.
     const double trueDistance = (s.points[i] - kf.cameraCenter()).norm();
     EXPECT_NEAR(1.0 / p.inverseDepth, trueDistance, 2e-3 * trueDistance);
-    EXPECT_LT((p.bearing - kf.camera.bearing(kf.pixel(p.anchorKeypoint))).norm(), 1e-6);
+    EXPECT_LT((p.bearing - kf.camera.unprojectToBearing(kf.pixel(p.anchorKeypoint))).norm(), 1e-6);
     EXPECT_LT((map.worldPosition(id) - s.points[i]).norm(), 2e-3 * trueDistance);
   }
   EXPECT_EQ(mapper.recentPoints().size(), created.size());

@@ -42,9 +42,9 @@ const cv::Mat& ImagePyramid::level(int l) const {
   return levels_[static_cast<std::size_t>(l)];
 }
 
-map::CameraIntrinsics levelCamera(const map::CameraIntrinsics& camera, int level) {
+geometry::PinholeCamera levelCamera(const geometry::PinholeCamera& camera, int level) {
   const double s = std::ldexp(1.0, -level);
-  map::CameraIntrinsics c = camera;
+  geometry::PinholeCamera c = camera;
   c.fx = camera.fx * s;
   c.fy = camera.fy * s;
   c.cx = (camera.cx + 0.5) * s - 0.5;

@@ -41,7 +41,7 @@ class PhotometricBACost : public ceres::CostFunction {
   std::array<Eigen::Vector3d, kPatternSize> rays;  ///< m_k at the level
   std::array<double, kPatternSize> host{};         ///< I_i at the pattern
   double bearingZ = 1.0;
-  map::CameraIntrinsics camera;                    ///< of the level
+  geometry::PinholeCamera camera;                    ///< of the level
   std::shared_ptr<const ImagePyramid> image;       ///< keeps the target image alive
   const cv::Mat* target = nullptr;                 ///< the level of `image`
   AffineBrightness hostFixed, targetFixed;
@@ -132,7 +132,7 @@ AffineBrightness valueOf(const std::shared_ptr<AffineBlock>& a) { return a ? a->
 
 PhotometricBAFactor::PhotometricBAFactor(std::shared_ptr<DirectLandmark> point, map::KeyFrameId target,
                                          std::shared_ptr<const ImagePyramid> targetImage,
-                                         const map::CameraIntrinsics& camera, std::shared_ptr<AffineBlock> hostAffine,
+                                         const geometry::PinholeCamera& camera, std::shared_ptr<AffineBlock> hostAffine,
                                          std::shared_ptr<AffineBlock> targetAffine, int level,
                                          const PhotometricParams& params)
     : point_(std::move(point)),

@@ -15,9 +15,9 @@ double PhotometricParams::whitenedChi2Threshold() const { return chi2PerPixel * 
 
 PSLAM_DEFINE_PARAMS(PhotometricParams)
 
-std::array<Eigen::Vector3d, kPatternSize> patternRays(const DirectLandmark& point, const map::CameraIntrinsics& camera,
+std::array<Eigen::Vector3d, kPatternSize> patternRays(const DirectLandmark& point, const geometry::PinholeCamera& camera,
                                                      int level) {
-  const map::CameraIntrinsics c = levelCamera(camera, level);
+  const geometry::PinholeCamera c = levelCamera(camera, level);
   const Eigen::Vector2d p = levelPixel(point.pixel, level);
   std::array<Eigen::Vector3d, kPatternSize> rays;
   for (int k = 0; k < kPatternSize; ++k) {
@@ -29,7 +29,7 @@ std::array<Eigen::Vector3d, kPatternSize> patternRays(const DirectLandmark& poin
 }
 
 DirectLandmark DirectLandmark::create(map::KeyFrameId host, const Eigen::Vector2d& pixel, double inverseDepth,
-                                const map::CameraIntrinsics& camera, const ImagePyramid& hostImage) {
+                                const geometry::PinholeCamera& camera, const ImagePyramid& hostImage) {
   const std::string ctx = "DirectLandmark";
   require(pixel.allFinite() && std::isfinite(inverseDepth) && inverseDepth >= 0.0, ctx,
           "pixel and inverse depth must be finite, inverse depth >= 0");
@@ -37,7 +37,7 @@ DirectLandmark DirectLandmark::create(map::KeyFrameId host, const Eigen::Vector2
   DirectLandmark p;
   p.host = host;
   p.pixel = pixel;
-  p.bearing = camera.bearing(pixel);
+  p.bearing = camera.unprojectToBearing(pixel);
   p.inverseDepth = inverseDepth;
   p.hostIntensities.resize(static_cast<std::size_t>(hostImage.levels()));
   for (int l = 0; l < hostImage.levels(); ++l) {
@@ -55,7 +55,7 @@ DirectLandmark DirectLandmark::create(map::KeyFrameId host, const Eigen::Vector2
 }
 
 PatternError evaluatePattern(const DirectLandmark& point, int level, const std::array<Eigen::Vector3d, kPatternSize>& rays,
-                             const Eigen::Isometry3d& T_target_host, double rho, const map::CameraIntrinsics& camera,
+                             const Eigen::Isometry3d& T_target_host, double rho, const geometry::PinholeCamera& camera,
                              const cv::Mat& targetLevel, const AffineBrightness& hostAffine,
                              const AffineBrightness& targetAffine) {
   PatternError pe;
@@ -65,7 +65,7 @@ PatternError evaluatePattern(const DirectLandmark& point, int level, const std::
   pe.gradient.fill(Eigen::Vector2d::Zero());
   if (!point.usableAt(level)) return pe;
   const std::vector<double>& host = point.hostIntensities[static_cast<std::size_t>(level)];
-  const map::CameraIntrinsics c = levelCamera(camera, level);
+  const geometry::PinholeCamera c = levelCamera(camera, level);
   const double rhoZ = rho / point.bearing.z();
   const double ratio = std::exp(targetAffine.a - hostAffine.a);  // e^{a_j - a_i}
   bool valid = true;

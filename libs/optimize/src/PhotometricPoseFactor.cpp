@@ -10,7 +10,7 @@ namespace pslam::optimize {
 PhotometricPoseFactor::PhotometricPoseFactor(std::shared_ptr<const DirectLandmark> point,
                                              const Eigen::Isometry3d& T_host_world, const AffineBrightness& hostAffine,
                                              std::shared_ptr<const ImagePyramid> target,
-                                             const AffineBrightness& targetAffine, const map::CameraIntrinsics& camera,
+                                             const AffineBrightness& targetAffine, const geometry::PinholeCamera& camera,
                                              int level, const PhotometricParams& params)
     : point_(std::move(point)),
       T_host_world_(T_host_world),
@@ -48,7 +48,7 @@ bool PhotometricPoseFactor::evaluateFixed(const Eigen::Isometry3d& T_cam_world, 
   if (jacobian) {
     jacobian->setZero();
     if (pe.valid) {
-      const map::CameraIntrinsics c = levelCamera(camera_, level_);
+      const geometry::PinholeCamera c = levelCamera(camera_, level_);
       const double rhoZ = point_->inverseDepth / point_->bearing.z();
       for (int k = 0; k < kPatternSize; ++k) {
         const std::size_t i = static_cast<std::size_t>(k);
@@ -93,7 +93,7 @@ bool PhotometricPoseFactor::squaredResidual(const Eigen::Isometry3d& T_cam_world
 }
 
 PoseOptimizationResult optimizePoseCoarseToFine(const Eigen::Isometry3d& T_cam_world_initial,
-                                                const map::CameraIntrinsics& camera,
+                                                const geometry::PinholeCamera& camera,
                                                 const std::vector<PoseObservation>& observations,
                                                 const std::vector<std::shared_ptr<const PhotometricPoseFactor>>& direct,
                                                 int coarsestLevel, const PoseOptimizationParams& params,

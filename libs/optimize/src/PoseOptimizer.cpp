@@ -9,7 +9,7 @@
 
 namespace pslam::optimize {
 
-bool poseOnlyResidual(const Eigen::Isometry3d& T_cam_world, const map::CameraIntrinsics& camera,
+bool poseOnlyResidual(const Eigen::Isometry3d& T_cam_world, const geometry::PinholeCamera& camera,
                       const PoseObservation& o, Eigen::Vector2d& residual, Eigen::Matrix<double, 2, 6>* jacobian) {
   const Eigen::Vector3d pc = T_cam_world * o.p_world;
   const double z = pc.z();
@@ -49,7 +49,7 @@ using Linearization = PoseNormalEquations;
 
 using Factors = std::vector<std::shared_ptr<const PoseFactor>>;
 
-Linearization linearize(const Eigen::Isometry3d& T, const map::CameraIntrinsics& camera,
+Linearization linearize(const Eigen::Isometry3d& T, const geometry::PinholeCamera& camera,
                         const std::vector<PoseObservation>& obs, const std::vector<bool>& excluded, double huberDelta,
                         const Factors& factors, const std::vector<bool>& factorExcluded, bool robust) {
   Linearization L;
@@ -65,7 +65,7 @@ Linearization linearize(const Eigen::Isometry3d& T, const map::CameraIntrinsics&
   return L;
 }
 
-double chi2At(const Eigen::Isometry3d& T, const map::CameraIntrinsics& cam, const PoseObservation& o, bool& inFront) {
+double chi2At(const Eigen::Isometry3d& T, const geometry::PinholeCamera& cam, const PoseObservation& o, bool& inFront) {
   Eigen::Vector2d r;
   inFront = poseOnlyResidual(T, cam, o, r, nullptr);
   return r.squaredNorm();
@@ -73,7 +73,7 @@ double chi2At(const Eigen::Isometry3d& T, const map::CameraIntrinsics& cam, cons
 
 /// Levenberg-Marquardt on the 6x6 normal equations (what g2o does for ORB-SLAM's PoseOptimization). A Ceres
 /// problem per round cost ~3 ms per call at 1000 correspondences, mostly per-problem set-up; this loop ~0.3 ms.
-Eigen::Isometry3d levenbergMarquardt(const Eigen::Isometry3d& start, const map::CameraIntrinsics& camera,
+Eigen::Isometry3d levenbergMarquardt(const Eigen::Isometry3d& start, const geometry::PinholeCamera& camera,
                                      const std::vector<PoseObservation>& obs, const std::vector<bool>& excluded,
                                      double huberDelta, int maxIterations, const Factors& factors,
                                      const std::vector<bool>& factorExcluded, PoseFreedom freedom) {
@@ -117,7 +117,7 @@ Eigen::Isometry3d levenbergMarquardt(const Eigen::Isometry3d& start, const map::
 
 }  // namespace
 
-PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial, const map::CameraIntrinsics& camera,
+PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial, const geometry::PinholeCamera& camera,
                                     const std::vector<PoseObservation>& observations,
                                     const PoseOptimizationParams& params, const std::vector<bool>& initialOutliers,
                                     const Factors& factors, PoseFreedom freedom) {

@@ -10,7 +10,7 @@
 
 namespace pslam::optimize::testing {
 
-inline map::CameraIntrinsics testCamera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
+inline geometry::PinholeCamera testCamera() { return {500.0, 500.0, 320.0, 240.0, 640, 480}; }
 
 /// i-th camera on an arc around the scene centre (0, 0, 6), looking roughly at it.
 inline Eigen::Isometry3d arcPose(int i, int n) {
@@ -65,7 +65,7 @@ inline SyntheticBA makeSyntheticBA(const SyntheticOptions& opt) {
   std::uniform_real_distribution<double> ux(-3.0, 3.0), uy(-2.0, 2.0), uz(4.0, 9.0), u01(0.0, 1.0);
   std::uniform_int_distribution<int> level(0, 3);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  const map::CameraIntrinsics cam = testCamera();
+  const geometry::PinholeCamera cam = testCamera();
   SyntheticBA s;
   for (int i = 0; i < opt.keyframes; ++i) {
     BAKeyFrame kf;

@@ -16,7 +16,7 @@
 
 namespace pslam::optimize::testing {
 
-inline map::CameraIntrinsics textureCamera() { return {500.0, 500.0, 319.5, 239.5, 640, 480}; }
+inline geometry::PinholeCamera textureCamera() { return {500.0, 500.0, 319.5, 239.5, 640, 480}; }
 
 /// Texture value in [0.22, 0.78] at plane coordinates (s, t) = world (X, Y).
 inline double planeTexture(double s, double t) {
@@ -27,7 +27,7 @@ inline double planeTexture(double s, double t) {
 }
 
 /// World point of pixel `px` of a camera at T_cam_world on the plane Z = 4 + 0.1 X.
-inline Eigen::Vector3d planePoint(const Eigen::Isometry3d& T_cam_world, const map::CameraIntrinsics& cam,
+inline Eigen::Vector3d planePoint(const Eigen::Isometry3d& T_cam_world, const geometry::PinholeCamera& cam,
                                   const Eigen::Vector2d& px) {
   const Eigen::Isometry3d T_world_cam = T_cam_world.inverse();
   const Eigen::Vector3d c = T_world_cam.translation();
@@ -37,7 +37,7 @@ inline Eigen::Vector3d planePoint(const Eigen::Isometry3d& T_cam_world, const ma
 }
 
 /// Renders the plane as CV_8UC1 with exposure I = e^a T + b (clamped to [0, 1], rounded to grey levels).
-inline cv::Mat renderPlane(const Eigen::Isometry3d& T_cam_world, const map::CameraIntrinsics& cam,
+inline cv::Mat renderPlane(const Eigen::Isometry3d& T_cam_world, const geometry::PinholeCamera& cam,
                            AffineBrightness exposure = {}) {
   cv::Mat img(cam.height, cam.width, CV_8UC1);
   const double gain = std::exp(exposure.a);
@@ -57,7 +57,7 @@ struct HostSample {
   double inverseDepth;
 };
 inline std::vector<HostSample> pickHostPixels(const cv::Mat& grey, const Eigen::Isometry3d& T_host_world,
-                                              const map::CameraIntrinsics& cam, int cell, int margin) {
+                                              const geometry::PinholeCamera& cam, int cell, int margin) {
   std::vector<HostSample> out;
   for (int y0 = margin; y0 + cell <= grey.rows - margin; y0 += cell)
     for (int x0 = margin; x0 + cell <= grey.cols - margin; x0 += cell) {

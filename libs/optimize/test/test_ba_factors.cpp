@@ -24,7 +24,7 @@ struct XyzLandmark {
 
 class XyzFactor : public BAFactor {
  public:
-  XyzFactor(KeyFrameId kf, std::shared_ptr<XyzLandmark> landmark, Eigen::Vector2d pixel, pslam::map::CameraIntrinsics cam)
+  XyzFactor(KeyFrameId kf, std::shared_ptr<XyzLandmark> landmark, Eigen::Vector2d pixel, pslam::geometry::PinholeCamera cam)
       : kf_(kf), landmark_(std::move(landmark)), pixel_(pixel), cam_(cam) {}
   std::string kind() const override { return "xyz"; }
   std::vector<KeyFrameId> keyframes() const override { return {kf_}; }
@@ -38,7 +38,7 @@ class XyzFactor : public BAFactor {
  private:
   struct Cost {
     Eigen::Vector2d pixel;
-    pslam::map::CameraIntrinsics cam;
+    pslam::geometry::PinholeCamera cam;
     template <typename T>
     bool operator()(const T* pose, const T* xyz, T* r) const {
       const Eigen::Matrix<T, 3, 1> pc = transformPoint(pose, Eigen::Matrix<T, 3, 1>(xyz[0], xyz[1], xyz[2]));
@@ -50,7 +50,7 @@ class XyzFactor : public BAFactor {
   KeyFrameId kf_;
   std::shared_ptr<XyzLandmark> landmark_;
   Eigen::Vector2d pixel_;
-  pslam::map::CameraIntrinsics cam_;
+  pslam::geometry::PinholeCamera cam_;
 };
 
 }  // namespace

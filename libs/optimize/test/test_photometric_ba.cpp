@@ -41,7 +41,7 @@ const std::vector<KeyFrameTruth>& truthKeyFrames() {
 }
 
 struct PlaneBA {
-  pslam::map::CameraIntrinsics cam = textureCamera();
+  pslam::geometry::PinholeCamera cam = textureCamera();
   std::vector<cv::Mat> images;
   std::vector<std::shared_ptr<const ImagePyramid>> pyramids;
   std::vector<std::shared_ptr<AffineBlock>> affine;
@@ -73,7 +73,7 @@ struct PlaneBA {
     std::vector<bool> occludedPoint(samples.size(), false);
     std::vector<Eigen::Vector2d> inKf3;
     for (const auto& sample : samples)
-      inKf3.push_back(cam.project(kfs[3].T * (kfs[0].T.inverse() * (cam.bearing(sample.pixel) / sample.inverseDepth))));
+      inKf3.push_back(cam.project(kfs[3].T * (kfs[0].T.inverse() * (cam.unprojectToBearing(sample.pixel) / sample.inverseDepth))));
     for (std::size_t i = 3; occlude && i < samples.size(); i += 8) {
       bool isolated = true;
       for (std::size_t j = 0; j < samples.size(); ++j)
@@ -123,11 +123,11 @@ struct AutoDiffPhotometricCost {
   std::array<Eigen::Vector3d, kPatternSize> rays;
   std::vector<double> host;
   double bearingZ;
-  pslam::map::CameraIntrinsics camera;  // of the level
+  pslam::geometry::PinholeCamera camera;  // of the level
   const cv::Mat* target;
   double whitening;
 
-  AutoDiffPhotometricCost(const DirectLandmark& p, const ImagePyramid& image, const pslam::map::CameraIntrinsics& cam, int level)
+  AutoDiffPhotometricCost(const DirectLandmark& p, const ImagePyramid& image, const pslam::geometry::PinholeCamera& cam, int level)
       : rays(patternRays(p, cam, level)),
         host(p.hostIntensities[static_cast<std::size_t>(level)]),
         bearingZ(p.bearing.z()),

@@ -18,7 +18,7 @@ using namespace pslam::optimize::testing;
 namespace {
 
 struct TwoViews {
-  pslam::map::CameraIntrinsics cam = textureCamera();
+  pslam::geometry::PinholeCamera cam = textureCamera();
   Eigen::Isometry3d T_host = cameraAt({0, 0, 0}, {0, 0, 0});
   Eigen::Isometry3d T_target = cameraAt({0.3, -0.05, 0.1}, {0.01, -0.04, 0.02});
   AffineBrightness hostAffine{0.0, 0.0}, targetAffine{0.15, 0.03};
@@ -35,7 +35,7 @@ struct TwoViews {
     const auto samples = pickHostPixels(hostImage, T_host, cam, 28, 20);
     std::vector<Eigen::Vector2d> projected;
     for (const auto& sample : samples)
-      projected.push_back(cam.project(T_target * T_host.inverse() * (cam.bearing(sample.pixel) / sample.inverseDepth)));
+      projected.push_back(cam.project(T_target * T_host.inverse() * (cam.unprojectToBearing(sample.pixel) / sample.inverseDepth)));
     for (std::size_t i = 0; i < samples.size(); ++i) {
       points.push_back(std::make_shared<DirectLandmark>(
           DirectLandmark::create(0, samples[i].pixel, samples[i].inverseDepth, cam, hostPyr)));

@@ -20,7 +20,7 @@ namespace {
 /// landmark kinds of chapters 3 and 4; its analytic Jacobian is written independently of poseOnlyResidual.
 class PlaneFactor : public PoseFactor {
  public:
-  PlaneFactor(Eigen::Vector3d p_world, Eigen::Vector2d pixel, pslam::map::CameraIntrinsics camera, double invSigma2,
+  PlaneFactor(Eigen::Vector3d p_world, Eigen::Vector2d pixel, pslam::geometry::PinholeCamera camera, double invSigma2,
               double chi2 = 5.991)
       : p_(p_world), px_(pixel), cam_(camera), w_(std::sqrt(invSigma2)), chi2_(chi2) {}
   std::string kind() const override { return "plane"; }
@@ -45,7 +45,7 @@ class PlaneFactor : public PoseFactor {
  private:
   Eigen::Vector3d p_;
   Eigen::Vector2d px_;
-  pslam::map::CameraIntrinsics cam_;
+  pslam::geometry::PinholeCamera cam_;
   double w_, chi2_;
 };
 

@@ -114,7 +114,7 @@ TEST(Residuals, AnchorObservationIsConstant) {
   // identical residuals for any rho, zero when the bearing is the keypoint's ray.
   const auto cam = testCamera();
   const Eigen::Vector2d keypoint(400.0, 100.0);
-  const Eigen::Vector3d bearing = cam.bearing(keypoint);
+  const Eigen::Vector3d bearing = cam.unprojectToBearing(keypoint);
   EXPECT_NEAR(anchorResidual(bearing, keypoint, 1.0, cam).norm(), 0.0, 1e-9);
   const Eigen::Vector3d tilted = (bearing + Eigen::Vector3d(0.002, 0.0, 0.0)).normalized();
   const Eigen::Vector2d r = anchorResidual(tilted, keypoint, 1.0, cam);

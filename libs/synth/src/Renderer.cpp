@@ -133,25 +133,20 @@ inline Eigen::Vector3d normalOf(const Prim& p, int face, const Eigen::Vector3d& 
 
 }  // namespace
 
-mrpt::img::TCamera PinholeCamera::toTCamera() const {
-  mrpt::img::TCamera c;
-  c.ncols = static_cast<uint32_t>(width);
-  c.nrows = static_cast<uint32_t>(height);
-  c.setIntrinsicParamsFromValues(fx, fy, cx, cy);
-  c.dist.fill(0.0);
-  return c;
-}
+PinholeCamera defaultRenderCamera() { return PinholeCamera(525.0, 525.0, 319.5, 239.5, 640, 480); }
 
-void PinholeCamera::check() const {
-  require(width >= 8 && width <= 8192, "camera", "width must be in [8, 8192], got " + std::to_string(width));
-  require(height >= 8 && height <= 8192, "camera", "height must be in [8, 8192], got " + std::to_string(height));
-  require(std::isfinite(fx) && fx > 0, "camera", "fx must be positive and finite");
-  require(std::isfinite(fy) && fy > 0, "camera", "fy must be positive and finite");
-  require(std::isfinite(cx) && std::isfinite(cy), "camera", "cx/cy must be finite");
+void checkRenderCamera(const PinholeCamera& camera) {
+  const PinholeCamera& c = camera;
+  require(c.width >= 8 && c.width <= 8192, "camera", "width must be in [8, 8192], got " + std::to_string(c.width));
+  require(c.height >= 8 && c.height <= 8192, "camera", "height must be in [8, 8192], got " + std::to_string(c.height));
+  require(std::isfinite(c.fx) && c.fx > 0, "camera", "fx must be positive and finite");
+  require(std::isfinite(c.fy) && c.fy > 0, "camera", "fy must be positive and finite");
+  require(std::isfinite(c.cx) && std::isfinite(c.cy), "camera", "cx/cy must be finite");
+  require(!c.hasDistortion(), "camera", "renders are ideal pinhole images: the distortion must be zero");
 }
 
 Renderer::Renderer(PinholeCamera camera, RenderOptions options) : camera_(camera), options_(options) {
-  camera_.check();
+  checkRenderCamera(camera_);
   require(options_.supersampling >= 1 && options_.supersampling <= 8, "renderer", "supersampling must be in [1, 8]");
   require(options_.nearClip > 0, "renderer", "nearClip must be positive");
 }

@@ -348,18 +348,9 @@ void System::saveMap(const std::filesystem::path& path) const { map::saveMap(map
 
 void System::loadMap(const std::filesystem::path& path) { setMap(map::loadMap(path), path.string()); }
 
-namespace {
-std::string describe(const map::CameraIntrinsics& c) {
-  std::ostringstream os;
-  os.precision(10);  // intrinsics that differ in a late digit must not print alike
-  os << "fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy << ", " << c.width << "x" << c.height;
-  return os.str();
-}
-}  // namespace
-
 void System::setMap(map::Map loaded, const std::string& source) {
   require(loaded.numKeyFrames() > 0, source, "map has no keyframe: nothing to localize against");
-  const map::CameraIntrinsics mapCamera = loaded.keyFrames().begin()->second.camera;
+  const geometry::PinholeCamera mapCamera = loaded.keyFrames().begin()->second.camera;
   if (!impl_) {
     // Without a camera yet, the map's (undistorted) intrinsics are the camera; frames must then fit them.
     geometry::PinholeCamera cam(mapCamera.fx, mapCamera.fy, mapCamera.cx, mapCamera.cy, mapCamera.width,
@@ -370,9 +361,9 @@ void System::setMap(map::Map loaded, const std::string& source) {
   impl_->scheduler.waitForMapping();
   std::lock_guard<std::mutex> mk(impl_->scheduler.mapMutex());
   SlamParts& parts = impl_->parts;
-  const map::CameraIntrinsics own = tracking::toIntrinsics(parts.camera);
+  const geometry::PinholeCamera own = parts.camera.withoutDistortion();
   require(own == mapCamera, source,
-          "map camera (" + describe(mapCamera) + ") differs from the camera of this run (" + describe(own) + ")");
+          "map camera (" + mapCamera.describe() + ") differs from the camera of this run (" + own.describe() + ")");
   // The map's extensions are checked against it before anything is replaced (a bad one: nothing changes).
   const std::function<void()> restoreExtensions = parts.prepareExtensions(loaded, source);
   parts.map = std::move(loaded);

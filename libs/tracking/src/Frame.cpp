@@ -19,17 +19,6 @@ void Frame::resetMatches() {
   outlier.assign(keypoints.size(), false);
 }
 
-map::CameraIntrinsics toIntrinsics(const geometry::PinholeCamera& camera) {
-  map::CameraIntrinsics c;
-  c.fx = camera.fx;
-  c.fy = camera.fy;
-  c.cx = camera.cx;
-  c.cy = camera.cy;
-  c.width = camera.width;
-  c.height = camera.height;
-  return c;
-}
-
 Frame makeFrameFromFeatures(std::size_t index, double timestamp, const geometry::PinholeCamera& camera,
                             const std::vector<cv::KeyPoint>& distortedKeypoints, const cv::Mat& descriptors,
                             int numLevels, double scaleFactor, const cv::Mat& semantic) {
@@ -38,7 +27,7 @@ Frame makeFrameFromFeatures(std::size_t index, double timestamp, const geometry:
   Frame f;
   f.index = index;
   f.timestamp = timestamp;
-  f.camera = toIntrinsics(camera);
+  f.camera = camera.withoutDistortion();
   f.bounds = camera.undistortedBounds();
   f.keypoints = camera.undistortKeyPoints(distortedKeypoints);
   f.descriptors = descriptors;

@@ -11,7 +11,7 @@ namespace pslam::tracking {
 namespace {
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-Eigen::Vector3d normalizedCoordinates(const map::CameraIntrinsics& cam, const cv::KeyPoint& kp) {
+Eigen::Vector3d normalizedCoordinates(const geometry::PinholeCamera& cam, const cv::KeyPoint& kp) {
   return {(kp.pt.x - cam.cx) / cam.fx, (kp.pt.y - cam.cy) / cam.fy, 1.0};
 }
 }  // namespace

@@ -40,7 +40,7 @@ struct MapInfo {
   std::filesystem::path file;
   std::uintmax_t fileBytes = 0;
   int formatVersion = 0;
-  map::CameraIntrinsics camera;
+  geometry::PinholeCamera camera;
   std::string vocabulary;                   ///< fingerprint of the vocabulary the map was built with, or empty
   /// What the map carries beside its points (format 2 extensions): name -> bytes.
   std::map<std::string, std::size_t> extensions;

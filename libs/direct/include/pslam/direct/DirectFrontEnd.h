@@ -269,7 +269,7 @@ class DirectFrontEnd : public tracking::LandmarkModule {
 
   DirectFeaturesParams params_;
   landmarks::PointModelParams pointModel_;
-  map::CameraIntrinsics intrinsics_;
+  geometry::PinholeCamera intrinsics_;
   double depthPixelNoise_ = 1.0;
   bool distorted_ = false;
   cv::Mat undistortX_, undistortY_;

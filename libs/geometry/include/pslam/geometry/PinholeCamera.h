@@ -1,5 +1,7 @@
 #pragma once
-// Pinhole camera with OpenCV plumb-bob (radtan) distortion (thesis §2.3.1, eq. 2.6-2.9).
+// Pinhole camera with OpenCV plumb-bob (radtan) distortion (thesis §2.3.1, eq. 2.6-2.9): the one camera type of the
+// libraries. A rawlog's camera carries its distortion; keyframes, frames and the optimizer use the ideal camera of
+// the undistorted keypoints (withoutDistortion()).
 //
 // Conventions (see doc/geometry.md):
 //  - Camera frame: x right, y down, z forward (optical axis). Pixel (0,0) is the centre of the top-left pixel.
@@ -45,6 +47,16 @@ struct PinholeCamera {
   /// Throws pslam::Error naming the offending field for NaN/inf values, focal lengths <= 0, sizes <= 0,
   /// or a principal point outside the image.
   void check() const;
+  /// The checks of a camera read from a file (a map): finite, positive focal lengths, a finite principal point,
+  /// a positive size; pslam::Error "<context>: ..." otherwise.
+  void check(const std::string& context) const;
+  /// The same camera without distortion: the ideal pinhole camera of the undistorted keypoints.
+  PinholeCamera withoutDistortion() const;
+  /// "fx ..., fy ..., cx ..., cy ..., WxH" with 10 significant digits (intrinsics that differ in a late digit must
+  /// not print alike), for error messages.
+  std::string describe() const;
+  bool operator==(const PinholeCamera& o) const;
+  bool operator!=(const PinholeCamera& o) const { return !(*this == o); }
 
   bool hasDistortion() const;
   Eigen::Matrix3d K() const;
@@ -52,15 +64,21 @@ struct PinholeCamera {
   cv::Mat cvK() const;           ///< CV_64F 3x3
   cv::Mat cvDistortion() const;  ///< CV_64F 1x5
 
-  /// Ideal pinhole projection of a camera-frame point (eq. 2.7). Requires Z != 0 (not checked: hot loop;
-  /// callers test depth first with hasPositiveDepth()).
-  Eigen::Vector2d project(const Eigen::Vector3d& X_cam) const;
+  /// Ideal pinhole projection of a camera-frame point (eq. 2.7), fx X / Z + cx. Requires Z != 0 (not checked: hot
+  /// loop; callers test the depth first).
+  Eigen::Vector2d project(const Eigen::Vector3d& X_cam) const {
+    return {fx * X_cam.x() / X_cam.z() + cx, fy * X_cam.y() / X_cam.z() + cy};
+  }
   /// Same, and the 2x3 Jacobian d(pixel)/d(X_cam) = [fx/Z 0 -fx X/Z^2; 0 fy/Z -fy Y/Z^2].
   Eigen::Vector2d project(const Eigen::Vector3d& X_cam, Eigen::Matrix<double, 2, 3>& jacobian) const;
   /// pi^-1 of eq. 2.9: the point on the normalized image plane z = 1 seen at an (undistorted) pixel.
   Eigen::Vector3d unprojectToPlane(const Eigen::Vector2d& pixel) const;
   /// Unit-norm ray direction through an (undistorted) pixel.
   Eigen::Vector3d unprojectToBearing(const Eigen::Vector2d& pixel) const;
+  /// Inside [0, width) x [0, height).
+  bool inImage(const Eigen::Vector2d& pixel) const {
+    return pixel.x() >= 0.0 && pixel.y() >= 0.0 && pixel.x() < width && pixel.y() < height;
+  }
 
   /// Undistorts raw pixel coordinates (cv::undistortPoints with P = K): the result is in pixels of the
   /// ideal pinhole camera with the same K. Returns the input unchanged when there is no distortion.

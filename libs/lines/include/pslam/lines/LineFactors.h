@@ -36,7 +36,7 @@ class LinePoseFactor : public optimize::PoseFactor {
  public:
   /// World endpoints of the map line; observed segment endpoints (undistorted pixels); `pixelSigma` > 0.
   LinePoseFactor(const Line3& line, const Eigen::Vector2d& observedStart, const Eigen::Vector2d& observedEnd,
-                 const map::CameraIntrinsics& camera, double pixelSigma);
+                 const geometry::PinholeCamera& camera, double pixelSigma);
   std::string kind() const override { return "line"; }
   int dimension() const override { return 2; }
   bool evaluate(const Eigen::Isometry3d& T_cam_world, Eigen::VectorXd& residual,
@@ -47,7 +47,7 @@ class LinePoseFactor : public optimize::PoseFactor {
  private:
   Line3 world_;
   Eigen::Vector3d line_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
   double invSigma_;
 };
 
@@ -109,7 +109,7 @@ class LineBAFactor : public optimize::BAFactor {
  public:
   /// `landmark` (updated in place by BA) observed in keyframe `keyframe` as the segment (start, end).
   LineBAFactor(std::shared_ptr<LineLandmark> landmark, map::KeyFrameId keyframe, const Eigen::Vector2d& observedStart,
-               const Eigen::Vector2d& observedEnd, const map::CameraIntrinsics& camera, double pixelSigma);
+               const Eigen::Vector2d& observedEnd, const geometry::PinholeCamera& camera, double pixelSigma);
   std::string kind() const override { return "line"; }
   std::vector<map::KeyFrameId> keyframes() const override { return {keyframe_}; }
   std::vector<double*> landmarkBlocks() const override { return {landmark_->endpoints.data()}; }

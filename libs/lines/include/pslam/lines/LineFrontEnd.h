@@ -211,7 +211,7 @@ class LineFrontEnd : public tracking::LandmarkModule {
   bool inFront(const Line3& line, const Eigen::Isometry3d& T_cam_world) const;
 
   LinesParams params_;
-  map::CameraIntrinsics intrinsics_;
+  geometry::PinholeCamera intrinsics_;
   LineExtractor extractor_;
   std::map<std::uint64_t, MapLine> lines_;
   std::map<map::KeyFrameId, LineKeyFrame> keyframes_;

@@ -43,7 +43,7 @@ struct LineTriangulation {
 /// of segment 1. Rejected: degenerate segments, planes closer than minPlaneAngleDeg (the line lies near the
 /// epipolar plane, no parallax), rays almost parallel to plane 2, endpoints behind either camera or beyond
 /// maxDepthRatio baselines.
-LineTriangulation triangulateLine(const map::CameraIntrinsics& camera, const Eigen::Isometry3d& T_cam1_world,
+LineTriangulation triangulateLine(const geometry::PinholeCamera& camera, const Eigen::Isometry3d& T_cam1_world,
                                   const Eigen::Vector2d& a1, const Eigen::Vector2d& b1,
                                   const Eigen::Isometry3d& T_cam2_world, const Eigen::Vector2d& a2,
                                   const Eigen::Vector2d& b2, const LineTriangulationParams& params = {});

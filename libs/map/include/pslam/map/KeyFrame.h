@@ -22,7 +22,7 @@ struct KeyFrame {
   KeyFrameId id = kNoKeyFrame;  ///< assigned by Map::addKeyFrame()
   double timestamp = 0.0;       ///< seconds
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();  ///< world -> camera
-  CameraIntrinsics camera;
+  geometry::PinholeCamera camera;
   std::vector<cv::KeyPoint> keypoints;  ///< undistorted pixel positions; `octave` = pyramid level
   cv::Mat descriptors;                  ///< keypoints.size() x 32, CV_8U (ORB)
   std::vector<double> scaleFactors;     ///< per pyramid level: s^level

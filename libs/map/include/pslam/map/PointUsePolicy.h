@@ -22,7 +22,7 @@ class Map;
 /// has a SEMANTIC channel.
 struct PointMeasurement {
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
-  CameraIntrinsics camera;
+  geometry::PinholeCamera camera;
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
   cv::Mat descriptor;                                      ///< 1 x 32 CV_8U row (may be empty)
   const std::array<float, 3>* classProbabilities = nullptr;  ///< P(static, dynamic, invalid) or null

@@ -39,7 +39,7 @@ inline Eigen::Matrix<double, 3, 4> rotationJacobian(const Eigen::Vector3d& u, do
 }
 
 /// Whitened pinhole projection and its 2 x 3 Jacobian w.r.t. the (homogeneous) camera point.
-inline void projectWhitened(const Eigen::Vector3d& p, const map::CameraIntrinsics& cam, const Eigen::Vector2d& obs,
+inline void projectWhitened(const Eigen::Vector3d& p, const geometry::PinholeCamera& cam, const Eigen::Vector2d& obs,
                             double s, double* residual, Eigen::Matrix<double, 2, 3>& J) {
   const double iz = 1.0 / p.z();
   residual[0] = s * (cam.fx * p.x() * iz + cam.cx - obs.x());
@@ -53,7 +53,7 @@ inline void projectWhitened(const Eigen::Vector3d& p, const map::CameraIntrinsic
 class PoseOnlyReprojectionCost final : public ceres::SizedCostFunction<2, kPoseSize> {
  public:
   PoseOnlyReprojectionCost(const Eigen::Vector3d& p_world, const Eigen::Vector2d& observed, double invSigma2,
-                           const map::CameraIntrinsics& camera)
+                           const geometry::PinholeCamera& camera)
       : p_world_(p_world), observed_(observed), sqrtInformation_(std::sqrt(invSigma2)), camera_(camera) {}
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
@@ -75,7 +75,7 @@ class PoseOnlyReprojectionCost final : public ceres::SizedCostFunction<2, kPoseS
   Eigen::Vector3d p_world_;
   Eigen::Vector2d observed_;
   double sqrtInformation_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
 };
 
 /// InverseDepthReprojectionError with analytic Jacobians (parameters: pose A [7], pose B [7], rho [1]).
@@ -83,7 +83,7 @@ class PoseOnlyReprojectionCost final : public ceres::SizedCostFunction<2, kPoseS
 class InverseDepthReprojectionCost final : public ceres::SizedCostFunction<2, kPoseSize, kPoseSize, 1> {
  public:
   InverseDepthReprojectionCost(const Eigen::Vector3d& bearingA, const Eigen::Vector2d& observedB, double invSigma2,
-                               const map::CameraIntrinsics& cameraB)
+                               const geometry::PinholeCamera& cameraB)
       : bearingA_(bearingA), observed_(observedB), sqrtInformation_(std::sqrt(invSigma2)), camera_(cameraB) {}
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
@@ -125,7 +125,7 @@ class InverseDepthReprojectionCost final : public ceres::SizedCostFunction<2, kP
   Eigen::Vector3d bearingA_;
   Eigen::Vector2d observed_;
   double sqrtInformation_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
 };
 
 }  // namespace pslam::optimize

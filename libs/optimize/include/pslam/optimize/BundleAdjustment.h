@@ -19,7 +19,7 @@ namespace pslam::optimize {
 
 struct BAKeyFrame {
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
-  map::CameraIntrinsics camera;
+  geometry::PinholeCamera camera;
   bool fixed = false;  ///< held constant (gauge / keyframes outside the local window)
 };
 

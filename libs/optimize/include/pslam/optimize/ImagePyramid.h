@@ -36,7 +36,7 @@ class ImagePyramid {
 };
 
 /// Intrinsics of pyramid level `level` (see the header comment).
-map::CameraIntrinsics levelCamera(const map::CameraIntrinsics& camera, int level);
+geometry::PinholeCamera levelCamera(const geometry::PinholeCamera& camera, int level);
 /// A level-0 pixel in level-`level` pixels.
 Eigen::Vector2d levelPixel(const Eigen::Vector2d& pixel0, int level);
 

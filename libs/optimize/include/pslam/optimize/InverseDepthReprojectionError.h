@@ -29,7 +29,7 @@ Eigen::Matrix<T, 3, 1> anchoredPointInTarget(const T* poseA, const T* poseB, con
 
 struct InverseDepthReprojectionError {
   InverseDepthReprojectionError(const Eigen::Vector3d& bearingA, const Eigen::Vector2d& observedB, double invSigma2,
-                                const map::CameraIntrinsics& cameraB)
+                                const geometry::PinholeCamera& cameraB)
       : bearingA_(bearingA), observed_(observedB), sqrtInformation_(std::sqrt(invSigma2)), camera_(cameraB) {}
 
   template <typename T>
@@ -40,7 +40,7 @@ struct InverseDepthReprojectionError {
   }
 
   static ceres::CostFunction* create(const Eigen::Vector3d& bearingA, const Eigen::Vector2d& observedB,
-                                     double invSigma2, const map::CameraIntrinsics& cameraB) {
+                                     double invSigma2, const geometry::PinholeCamera& cameraB) {
     return new ceres::AutoDiffCostFunction<InverseDepthReprojectionError, 2, kPoseSize, kPoseSize, 1>(
         new InverseDepthReprojectionError(bearingA, observedB, invSigma2, cameraB));
   }
@@ -49,12 +49,12 @@ struct InverseDepthReprojectionError {
   Eigen::Vector3d bearingA_;
   Eigen::Vector2d observed_;
   double sqrtInformation_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
 };
 
 /// The constant whitened residual of the observation in the anchor keyframe itself (see above).
 inline Eigen::Vector2d anchorResidual(const Eigen::Vector3d& bearingA, const Eigen::Vector2d& observedA,
-                                      double invSigma2, const map::CameraIntrinsics& cameraA) {
+                                      double invSigma2, const geometry::PinholeCamera& cameraA) {
   Eigen::Vector2d r;
   whitenedReprojection<double>(bearingA, cameraA, observedA, std::sqrt(invSigma2), r.data());
   return r;

@@ -34,7 +34,7 @@ class PhotometricBAFactor : public BAFactor {
   /// (!= host) whose pyramid is `targetImage`; `camera`: level-0 intrinsics; null affine blocks mean (0, 0)
   /// fixed. Throws pslam::Error on null point/image, target == host or a level the point / image lacks.
   PhotometricBAFactor(std::shared_ptr<DirectLandmark> point, map::KeyFrameId target,
-                      std::shared_ptr<const ImagePyramid> targetImage, const map::CameraIntrinsics& camera,
+                      std::shared_ptr<const ImagePyramid> targetImage, const geometry::PinholeCamera& camera,
                       std::shared_ptr<AffineBlock> hostAffine = nullptr,
                       std::shared_ptr<AffineBlock> targetAffine = nullptr, int level = 0,
                       const PhotometricParams& params = {});
@@ -55,7 +55,7 @@ class PhotometricBAFactor : public BAFactor {
   std::shared_ptr<DirectLandmark> point_;
   map::KeyFrameId target_;
   std::shared_ptr<const ImagePyramid> image_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
   std::shared_ptr<AffineBlock> hostAffine_, targetAffine_;
   int level_;
   PhotometricParams params_;

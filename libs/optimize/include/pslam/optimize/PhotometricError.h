@@ -96,7 +96,7 @@ struct DirectLandmark {
   /// The point at level 0 of a camera: bearing from `pixel`, host intensities sampled from `hostImage` on all
   /// its levels. Throws pslam::Error when the pattern does not fit into level 0, for rho < 0 or non-finite input.
   static DirectLandmark create(map::KeyFrameId host, const Eigen::Vector2d& pixel, double inverseDepth,
-                            const map::CameraIntrinsics& camera, const ImagePyramid& hostImage);
+                            const geometry::PinholeCamera& camera, const ImagePyramid& hostImage);
   int levels() const { return static_cast<int>(hostIntensities.size()); }
   bool usableAt(int level) const {
     return level >= 0 && level < levels() && !hostIntensities[static_cast<std::size_t>(level)].empty();
@@ -114,13 +114,13 @@ struct PatternError {
 };
 
 /// Normalized host coordinates m_k of the pattern at `level` (camera = level-0 intrinsics).
-std::array<Eigen::Vector3d, kPatternSize> patternRays(const DirectLandmark& point, const map::CameraIntrinsics& camera,
+std::array<Eigen::Vector3d, kPatternSize> patternRays(const DirectLandmark& point, const geometry::PinholeCamera& camera,
                                                      int level);
 
 /// e_k of the header comment for the relative pose T_target_host, inverse depth `rho`, target image level
 /// `targetLevel` of `level`. Out-of-image samples are clamped to the border (e stays finite, valid = false).
 PatternError evaluatePattern(const DirectLandmark& point, int level, const std::array<Eigen::Vector3d, kPatternSize>& rays,
-                             const Eigen::Isometry3d& T_target_host, double rho, const map::CameraIntrinsics& camera,
+                             const Eigen::Isometry3d& T_target_host, double rho, const geometry::PinholeCamera& camera,
                              const cv::Mat& targetLevel, const AffineBrightness& hostAffine,
                              const AffineBrightness& targetAffine);
 

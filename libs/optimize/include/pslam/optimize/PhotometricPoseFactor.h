@@ -23,7 +23,7 @@ class PhotometricPoseFactor : public PoseFactor {
   /// (not copied). Throws pslam::Error on null pointers, a level beyond the target pyramid or the point's levels.
   PhotometricPoseFactor(std::shared_ptr<const DirectLandmark> point, const Eigen::Isometry3d& T_host_world,
                         const AffineBrightness& hostAffine, std::shared_ptr<const ImagePyramid> target,
-                        const AffineBrightness& targetAffine, const map::CameraIntrinsics& camera, int level = 0,
+                        const AffineBrightness& targetAffine, const geometry::PinholeCamera& camera, int level = 0,
                         const PhotometricParams& params = {});
 
   /// The same observation at another pyramid level (cheap: the point and the image are shared).
@@ -56,7 +56,7 @@ class PhotometricPoseFactor : public PoseFactor {
   Eigen::Isometry3d T_host_world_, T_world_host_;
   AffineBrightness hostAffine_, targetAffine_;
   std::shared_ptr<const ImagePyramid> target_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
   int level_ = 0;
   PhotometricParams params_;
   std::array<Eigen::Vector3d, kPatternSize> rays_;  ///< pattern rays m_k at level_
@@ -71,7 +71,7 @@ class PhotometricPoseFactor : public PoseFactor {
 /// The target pyramids need more than `coarsestLevel` levels (else pslam::Error). Returns the
 /// level-0 result; its factorOutlier lists `direct` first, then `otherFactors`.
 PoseOptimizationResult optimizePoseCoarseToFine(const Eigen::Isometry3d& T_cam_world_initial,
-                                                const map::CameraIntrinsics& camera,
+                                                const geometry::PinholeCamera& camera,
                                                 const std::vector<PoseObservation>& observations,
                                                 const std::vector<std::shared_ptr<const PhotometricPoseFactor>>& direct,
                                                 int coarsestLevel, const PoseOptimizationParams& params = {},

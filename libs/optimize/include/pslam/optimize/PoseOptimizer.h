@@ -36,7 +36,7 @@ struct PoseOptimizationResult {
 /// Whitened reprojection residual sqrt(invSigma2) * (pi(T p_world) - pixel) of one observation and, when
 /// `jacobian` is given, its derivative w.r.t. xi = (omega, v) of the left perturbation T <- Exp(xi) T
 /// (retractPoseLeft). Returns false when the point is not in front of the camera.
-bool poseOnlyResidual(const Eigen::Isometry3d& T_cam_world, const map::CameraIntrinsics& camera,
+bool poseOnlyResidual(const Eigen::Isometry3d& T_cam_world, const geometry::PinholeCamera& camera,
                       const PoseObservation& observation, Eigen::Vector2d& residual,
                       Eigen::Matrix<double, 2, 6>* jacobian);
 /// T <- Exp(xi) T with the rotation exp(omega) (angle-axis) and translation v: a retraction whose derivative
@@ -53,7 +53,7 @@ enum class PoseFreedom {
 /// (empty = none) start excluded but are re-checked after the first round. `factors` are observations of
 /// other landmark kinds (PoseFactor.h) optimized jointly; they start as inliers and are classified with their
 /// own chi-square threshold. Throws pslam::Error on non-finite input or a size mismatch.
-PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial, const map::CameraIntrinsics& camera,
+PoseOptimizationResult optimizePose(const Eigen::Isometry3d& T_cam_world_initial, const geometry::PinholeCamera& camera,
                                     const std::vector<PoseObservation>& observations,
                                     const PoseOptimizationParams& params = {},
                                     const std::vector<bool>& initialOutliers = {},

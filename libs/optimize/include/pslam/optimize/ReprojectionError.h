@@ -13,14 +13,14 @@ namespace pslam::optimize {
 
 /// Whitened pinhole reprojection residual of a camera-frame point (shared by all residuals).
 template <typename T>
-void whitenedReprojection(const Eigen::Matrix<T, 3, 1>& p_cam, const map::CameraIntrinsics& cam,
+void whitenedReprojection(const Eigen::Matrix<T, 3, 1>& p_cam, const geometry::PinholeCamera& cam,
                           const Eigen::Vector2d& observed, double sqrtInformation, T* residual) {
   residual[0] = T(sqrtInformation) * (T(cam.fx) * p_cam.x() / p_cam.z() + T(cam.cx) - T(observed.x()));
   residual[1] = T(sqrtInformation) * (T(cam.fy) * p_cam.y() / p_cam.z() + T(cam.cy) - T(observed.y()));
 }
 
 struct ReprojectionError {
-  ReprojectionError(const Eigen::Vector2d& observed, double invSigma2, const map::CameraIntrinsics& camera)
+  ReprojectionError(const Eigen::Vector2d& observed, double invSigma2, const geometry::PinholeCamera& camera)
       : observed_(observed), sqrtInformation_(std::sqrt(invSigma2)), camera_(camera) {}
 
   template <typename T>
@@ -31,7 +31,7 @@ struct ReprojectionError {
   }
 
   static ceres::CostFunction* create(const Eigen::Vector2d& observed, double invSigma2,
-                                     const map::CameraIntrinsics& camera) {
+                                     const geometry::PinholeCamera& camera) {
     return new ceres::AutoDiffCostFunction<ReprojectionError, 2, kPoseSize, 3>(
         new ReprojectionError(observed, invSigma2, camera));
   }
@@ -39,12 +39,12 @@ struct ReprojectionError {
  private:
   Eigen::Vector2d observed_;
   double sqrtInformation_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
 };
 
 struct PoseOnlyReprojectionError {
   PoseOnlyReprojectionError(const Eigen::Vector3d& p_world, const Eigen::Vector2d& observed, double invSigma2,
-                            const map::CameraIntrinsics& camera)
+                            const geometry::PinholeCamera& camera)
       : p_world_(p_world), observed_(observed), sqrtInformation_(std::sqrt(invSigma2)), camera_(camera) {}
 
   template <typename T>
@@ -55,7 +55,7 @@ struct PoseOnlyReprojectionError {
   }
 
   static ceres::CostFunction* create(const Eigen::Vector3d& p_world, const Eigen::Vector2d& observed,
-                                     double invSigma2, const map::CameraIntrinsics& camera) {
+                                     double invSigma2, const geometry::PinholeCamera& camera) {
     return new ceres::AutoDiffCostFunction<PoseOnlyReprojectionError, 2, kPoseSize>(
         new PoseOnlyReprojectionError(p_world, observed, invSigma2, camera));
   }
@@ -64,7 +64,7 @@ struct PoseOnlyReprojectionError {
   Eigen::Vector3d p_world_;
   Eigen::Vector2d observed_;
   double sqrtInformation_;
-  map::CameraIntrinsics camera_;
+  geometry::PinholeCamera camera_;
 };
 
 }  // namespace pslam::optimize

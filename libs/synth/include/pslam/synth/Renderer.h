@@ -11,17 +11,18 @@
 
 #include <mrpt/img/TCamera.h>
 
+#include "pslam/geometry/PinholeCamera.h"
 #include "pslam/synth/Scene.h"
 
 namespace pslam::synth {
 
-struct PinholeCamera {
-  int width = 640, height = 480;
-  double fx = 525.0, fy = 525.0, cx = 319.5, cy = 239.5;
-  mrpt::img::TCamera toTCamera() const;
-  /// Throws pslam::Error naming the bad value.
-  void check() const;
-};
+/// The camera of a rendering: the project's one camera type (no distortion: renders are ideal pinhole images).
+using geometry::PinholeCamera;
+/// The camera slam-synth renders with by default: 640 x 480, f 525 px, principal point at the image centre.
+PinholeCamera defaultRenderCamera();
+/// What the renderer accepts: 8-8192 px wide and high, positive finite focal lengths, a finite principal point;
+/// pslam::Error naming the bad value otherwise.
+void checkRenderCamera(const PinholeCamera& camera);
 
 enum class AntiAliasing {
   Silhouettes,  ///< supersample object outlines only

@@ -22,7 +22,7 @@ namespace pslam::tracking {
 struct Frame {
   std::size_t index = 0;   ///< position in the input sequence
   double timestamp = 0.0;  ///< seconds
-  map::CameraIntrinsics camera;          ///< ideal pinhole camera of the undistorted keypoints
+  geometry::PinholeCamera camera;          ///< ideal pinhole camera of the undistorted keypoints (no distortion)
   geometry::ImageBounds bounds;          ///< undistorted image bounds (projections outside are not searched)
   std::vector<cv::KeyPoint> keypoints;   ///< undistorted; octave = pyramid level
   cv::Mat descriptors;                   ///< N x 32 CV_8U
@@ -72,8 +72,5 @@ Frame makeFrame(const datasets::Frame& input, const geometry::PinholeCamera& cam
 Frame makeFrameFromFeatures(std::size_t index, double timestamp, const geometry::PinholeCamera& camera,
                             const std::vector<cv::KeyPoint>& distortedKeypoints, const cv::Mat& descriptors,
                             int numLevels, double scaleFactor, const cv::Mat& semantic = cv::Mat());
-
-/// The ideal pinhole intrinsics of undistorted keypoints for a camera.
-map::CameraIntrinsics toIntrinsics(const geometry::PinholeCamera& camera);
 
 }  // namespace pslam::tracking

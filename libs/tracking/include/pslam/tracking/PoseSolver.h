@@ -19,7 +19,7 @@ namespace pslam::tracking {
 /// Everything a pose solver gets for one frame.
 struct PoseSolveRequest {
   Eigen::Isometry3d T_cam_world_initial = Eigen::Isometry3d::Identity();
-  map::CameraIntrinsics camera;
+  geometry::PinholeCamera camera;
   std::vector<optimize::PoseObservation> observations;  ///< ORB keypoint <-> map point reprojections
   std::vector<bool> initialOutliers;                     ///< empty = none
   /// Rotation prior R_cam_world for this frame (e.g. from the Manhattan frame), if any.
