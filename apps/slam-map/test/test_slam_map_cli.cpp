@@ -137,3 +137,23 @@ TEST(SlamMapCli, BadInputIsOneErrorLineAndExitCodeOne) {
   EXPECT_EQ(std::count(nothing.err.begin(), nothing.err.end(), '\n'), 1) << nothing.err;
   EXPECT_NE(nothing.err.find("nothing to export"), std::string::npos) << nothing.err;
 }
+
+// Reliability (doc/reliability.md): `export --width 65536 --height 65536` allocated 12.8 GB (and `--width 100000`
+// printed OpenCV's out-of-memory text without naming the option); `optimum --segments 0` was accepted. Refused by
+// the command line, naming the option and the value, before any map is read.
+TEST(SlamMapCli, AbsurdSizesAndZeroSegmentsAreRefused) {
+  TempDir tmp;
+  const CliRun wide = runCli("export /nonexistent/x.slammap --png " + (tmp.path / "x.png").string() +
+                                 " --width 65536 --height 65536",
+                             tmp.path);
+  EXPECT_NE(wide.exitCode, 0);
+  EXPECT_NE(wide.err.find("--width: 65536: must be in [200, 16384]"), std::string::npos) << wide.err;
+  const CliRun tall = runCli("export /nonexistent/x.slammap --png " + (tmp.path / "x.png").string() +
+                                 " --height 100000",
+                             tmp.path);
+  EXPECT_NE(tall.err.find("--height: 100000: must be in [200, 16384]"), std::string::npos) << tall.err;
+  EXPECT_FALSE(fs::exists(tmp.path / "x.png"));
+  const CliRun zero = runCli("optimum /nonexistent/x.slammap /nonexistent/gt.txt --segments 0", tmp.path);
+  EXPECT_NE(zero.exitCode, 0);
+  EXPECT_NE(zero.err.find("--segments: 0: must be >= 1"), std::string::npos) << zero.err;
+}
