@@ -273,6 +273,12 @@ void throwArchiveReadError(const std::filesystem::path& path, const std::excepti
   else if (const auto at2 = what.find("has class '"); at2 != std::string::npos)
     cls = what.substr(at2 + 11, what.find('\'', at2 + 11) - at2 - 11);
   if (!cls.empty()) throw Error(path.string() + ": not a " + fileKind + " (it holds a " + cls + ")");
+  // MRPT could not even read an object header: the data is something else (text, another format), not a damaged
+  // archive of ours (whose header it would read).
+  if (what.find("parsing typed object ''") != std::string::npos ||
+      what.find("old streaming header") != std::string::npos ||
+      what.find("Class name has more than") != std::string::npos)
+    throw Error(path.string() + ": not a " + fileKind + " (its data is not an MRPT archive)");
   if (const auto* err = dynamic_cast<const Error*>(&e)) throw *err;
   throw Error(path.string() + ": not a readable " + fileKind + " (truncated or corrupt: " + oneLineMessage(e) + ")");
 }
