@@ -74,6 +74,7 @@ NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
     ++r.frames;
     progress.update(r.frames, std::to_string(nm.planeCount) + " planes");
   }
+  require(r.frames > 0, o.input.string(), "rawlog has no CAMERA frame");  // as every other reader of rawlogs
   writer.commit();
   if (gtOut) {
     std::ifstream in(gtIn, std::ios::binary);
