@@ -1,8 +1,10 @@
 #include "pslam/datasets/Rawlog.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <optional>
 #include <vector>
@@ -152,8 +154,19 @@ void RawlogWriter::write(const Frame& f) {
     // PNG level 1: lossless like any level, several times faster to write than OpenCV's default 3 for a
     // few percent more disk (the writer is on the critical path of conversion and generation).
     static const std::vector<int> kPngParams{cv::IMWRITE_PNG_COMPRESSION, 1};
-    if (!cv::imwrite(file.string(), m, d.ext == "png" ? kPngParams : std::vector<int>{}))
-      throw Error(ctx + ": cannot write image " + file.string());
+    errno = 0;
+    bool written = false;
+    std::string why;
+    try {
+      written = cv::imwrite(file.string(), m, d.ext == "png" ? kPngParams : std::vector<int>{});
+    } catch (const cv::Exception& e) {
+      why = oneLineMessage(e);
+    }
+    if (!written) {
+      // OpenCV says only "false": the reason (a full disk, a file-size limit) is in errno.
+      if (why.empty()) why = errno ? std::strerror(errno) : "the encoder failed";
+      throw Error(ctx + ": cannot write image " + file.string() + " (" + why + ")");
+    }
     auto obs = mrpt::obs::CObservationImage::Create();
     obs->sensorLabel = label;
     obs->timestamp = stamp;

@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -516,4 +519,30 @@ TEST(Rawlog, StampsMustIncrease) {
       EXPECT_FALSE(r.warnings().empty());
     }
   }
+}
+
+// Reliability: on a full disk the writers (slam-synth, normal-priors, dataset2rawlog) said "cannot write image"
+// without the reason. A file-size limit stands in for the full disk (EFBIG instead of ENOSPC).
+TEST(Rawlog, ImageThatCannotBeWrittenSaysWhy) {
+  const fs::path d = tempDir("full_disk");
+  struct rlimit old {};
+  ::getrlimit(RLIMIT_FSIZE, &old);
+  const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+  std::string msg;
+  {
+    RawlogWriter w(d / "seq.rawlog");
+    struct rlimit tiny = old;
+    tiny.rlim_cur = 512;
+    ::setrlimit(RLIMIT_FSIZE, &tiny);
+    try {
+      w.write(makeFrame(0, true, false));
+    } catch (const Error& e) {
+      msg = e.what();
+    }
+    ::setrlimit(RLIMIT_FSIZE, &old);
+  }
+  std::signal(SIGXFSZ, oldHandler);
+  EXPECT_NE(msg.find("cannot write image"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("(File too large)"), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(d / "seq.rawlog"));
 }
