@@ -115,7 +115,7 @@ TEST(SlamMapCli, InfoAndExport) {
   const nlohmann::json o = nlohmann::json::parse(opt.out);
   ASSERT_EQ(o["stages"].size(), 4u);
   for (const auto& st : o["stages"]) EXPECT_LT(st["keyframe_ate_m"].get<double>(), 1e-4) << st.dump();
-  const CliRun optText = runCli("optimum " + curvedFile.string() + " " + gt.string() + " --segments 0", tmp.path);
+  const CliRun optText = runCli("optimum " + curvedFile.string() + " " + gt.string() + " --segments 1", tmp.path);
   EXPECT_EQ(optText.exitCode, 0) << optText.err;
   EXPECT_NE(optText.out.find("ba_from_groundtruth"), std::string::npos) << optText.out;
   const CliRun noGt = runCli("optimum " + file.string() + " " + (tmp.path / "none.txt").string(), tmp.path);
