@@ -64,7 +64,13 @@ NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
   datasets::Frame frame;
   while (reader.next(frame)) {
     const auto t0 = std::chrono::steady_clock::now();
-    const NormalMap nm = source->compute(frame);
+    const NormalMap nm = [&] {
+      try {
+        return source->compute(frame);
+      } catch (const Error& e) {  // names the frame; the file is ours to add
+        throw Error(o.input.string() + ": " + e.what());
+      }
+    }();
     totalMs += msSince(t0);
     frame.normals = encodeNormalMap(nm.normals, o.planarOnly ? nm.planarMask : cv::Mat());
     cv::Mat stored;

@@ -153,4 +153,27 @@ TEST(NormalPriorsApp, EmptyRawlogIsRefused) {
         << err.what();
   }
   EXPECT_FALSE(fs::exists(o.output));
+  // A rawlog without DEPTH for normals from depth: the file and the frame (the frame alone was named).
+  {
+    pslam::datasets::RawlogWriter w(dir / "nodepth.rawlog");
+    pslam::datasets::Frame f;
+    f.timestamp = 1.0;
+    f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(90));
+    f.camera.ncols = 64;
+    f.camera.nrows = 48;
+    f.camera.fx(50.0);
+    f.camera.fy(50.0);
+    f.camera.cx(32.0);
+    f.camera.cy(24.0);
+    w.write(f);
+    w.commit();
+  }
+  o.input = dir / "nodepth.rawlog";
+  try {
+    runNormalPriors(o);
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& err) {
+    EXPECT_EQ(std::string(err.what()).rfind((dir / "nodepth.rawlog").string() + ": frame 0: has no DEPTH channel", 0), 0u)
+        << err.what();
+  }
 }
