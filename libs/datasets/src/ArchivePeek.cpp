@@ -1,7 +1,10 @@
 #include "ArchivePeek.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 #include <utility>
 
 #include "pslam/core/Error.h"
@@ -44,8 +47,23 @@ uint64_t PeekStream::Seek(int64_t, TSeekOrigin) { throw Error("PeekStream: not s
 
 namespace {
 
+/// A name read from the data, fit for a one-line message: other bytes than letters, digits, '_' and ':' as \xNN.
+std::string printable(const std::string& name) {
+  std::string out;
+  for (unsigned char c : name) {
+    if (std::isalnum(c) || c == '_' || c == ':') {
+      out += static_cast<char>(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02X", c);
+      out += buf;
+    }
+  }
+  return out;
+}
+
 constexpr unsigned char kEndOfObject = 0x88;       // MRPT's end-of-object flag
-constexpr std::uint64_t kMaxImagePixels = 1u << 26;  // 8192 x 8192: no depth camera comes near
+constexpr std::uint64_t kMaxImagePixels = 1u << 26;  // 8192 x 8192: no camera of a rawlog comes near
 
 /// A look-ahead cursor over the next object's bytes; every read is checked against the data left.
 class Walker {
@@ -115,7 +133,7 @@ class Walker {
   int nested(const char* cls, std::initializer_list<int> versions) {
     int version = -1;
     const std::string name = header(version);
-    if (name != cls) throw Refused{std::string("a ") + name + " where a " + cls + " belongs"};
+    if (name != cls) throw Refused{"a class '" + printable(name) + "' where a " + cls + " belongs"};
     if (std::find(versions.begin(), versions.end(), version) == versions.end())
       throw Refused{std::string("a ") + cls + " of serialization version " + std::to_string(version) +
                     " (this reader knows the layout of the version this MRPT writes)"};
@@ -134,14 +152,64 @@ class Walker {
     if (v >= 6) u8();  // distortion model
     end("a TCamera");
   }
-  /// An image inside a range scan: only external storage (a file name) is walked.
-  void externalImage(const char* what) {
+  std::int32_t i32() { return static_cast<std::int32_t>(u32()); }
+  /// Refuses `pixels` x `bytesPerPixel` when it cannot be in the bytes left (or exceeds kMaxImagePixels).
+  void imageBytes(const std::string& declared, std::uint64_t pixels, std::uint64_t bytesPerPixel) {
+    if (pixels > kMaxImagePixels)
+      throw Refused{declared + " (more than the " + std::to_string(kMaxImagePixels) + " pixels this reader reads)"};
+    if (pixels * bytesPerPixel > in_.bytesLeft() - pos_)
+      throw Refused{declared + " (" + std::to_string(pixels * bytesPerPixel) + " bytes, more than the " +
+                    std::to_string(in_.bytesLeft() - pos_) + " left in the rawlog)"};
+  }
+  /// A CImage (version 9, MRPT 2.x), field by field as its serializeFrom reads them: a file name, or the pixels
+  /// (grey: raw bytes; colour: JPEG bytes or raw BGR), whose declared size MRPT allocates before it reads them.
+  void image(const std::string& what) {
     nested("CImage", {9});
-    if (!flag("externally stored"))
-      throw Refused{std::string("a DEPTH observation with its ") + what +
-                    " image stored inside the rawlog (not read by this reader)"};
-    string("image file name");
+    if (flag("externally stored")) {
+      string("image file name");
+    } else if (u8() == 0) {  // grey: width, height, origin, size in bytes, pixel depth; a ZIP flag; the bytes
+      const std::int32_t w = i32(), h = i32();
+      i32();  // origin
+      const std::uint32_t bytes = u32();
+      const std::int32_t depth = i32();
+      static const int kBytesPerDepth[] = {1, 1, 2, 2, 4, 4, 8};  // MRPT's PixelDepth: 8U 8S 16U 16S 32S 32F 64F
+      const std::string declared = "a " + what + " declares a " + std::to_string(w) + "x" + std::to_string(h) +
+                                   " grey image of pixel depth " + std::to_string(depth);
+      if (w < 0 || h < 0 || depth < 0 || depth > 6) throw Refused{declared};
+      imageBytes(declared, std::uint64_t(w) * std::uint64_t(h), kBytesPerDepth[depth]);
+      if (flag("image stored as ZIP")) throw Refused{"a " + what + " stored ZIP-compressed (MRPT cannot read it)"};
+      skip(bytes);
+    } else {  // colour: width, height; JPEG bytes (both > 0), raw BGR (both < 0) or an empty image
+      const std::int32_t w = i32(), h = i32();
+      const std::string declared =
+          "a " + what + " declares a " + std::to_string(w) + "x" + std::to_string(h) + " colour image";
+      if (w >= 1 && h >= 1) {
+        const std::uint32_t n = u32();
+        if (n > in_.bytesLeft() - pos_)
+          throw Refused{declared + " of " + std::to_string(n) + " JPEG bytes, more than the " +
+                        std::to_string(in_.bytesLeft() - pos_) + " left in the rawlog"};
+        skip(n);
+      } else if (w < 0 && h < 0 && w != std::numeric_limits<std::int32_t>::min() &&
+                 h != std::numeric_limits<std::int32_t>::min()) {
+        imageBytes(declared, std::uint64_t(-std::int64_t(w)) * std::uint64_t(-std::int64_t(h)), 3);
+        skip(std::uint64_t(-std::int64_t(w)) * std::uint64_t(-std::int64_t(h)) * 3);
+      } else if (w != 0 && h != 0) {
+        throw Refused{declared};
+      }
+    }
     end("a CImage");
+  }
+  // CObservationImage, version 4 (MRPT 2.x): camera pose, camera, image, time stamp, sensor label.
+  void observationImage(int version) {
+    if (version != 4)
+      throw Refused{"a CObservationImage of serialization version " + std::to_string(version) +
+                    " (this reader reads version 4)"};
+    pose3D();
+    camera();
+    image("CObservationImage");
+    skip(8);  // timestamp
+    string("sensor label");
+    end("the CObservationImage");
   }
   /// The range image size fields: refused when the image cannot be in the bytes left.
   void rangeImage(const char* what) {
@@ -174,8 +242,8 @@ class Walker {
     const bool hasRange = flag("hasRangeImage");
     skip(4);  // rangeUnits
     if (hasRange) rangeImage("range image");
-    if (flag("hasIntensityImage")) externalImage("intensity");
-    if (flag("hasConfidenceImage")) externalImage("confidence");
+    if (flag("hasIntensityImage")) image("DEPTH observation's intensity image");
+    if (flag("hasConfidenceImage")) image("DEPTH observation's confidence image");
     camera();
     camera();
     pose3D();
@@ -216,10 +284,13 @@ std::string checkNextObject(PeekStream& in) {
   } catch (const Walker::Refused&) {
     return "";  // a header MRPT cannot read either: its own error says so
   }
-  if (cls != "CObservation3DRangeScan") return "";
+  if (cls != "CObservation3DRangeScan" && cls != "CObservationImage") return "";
   try {
-    if (oldFormat) throw Walker::Refused{"a CObservation3DRangeScan in the old (MRPT < 0.5.5) format"};
-    w.rangeScan(version);
+    if (oldFormat) throw Walker::Refused{"a " + cls + " in the old (MRPT < 0.5.5) format"};
+    if (cls == "CObservationImage")
+      w.observationImage(version);
+    else
+      w.rangeScan(version);
   } catch (const Walker::Refused& r) {
     return r.why;
   }

@@ -40,8 +40,9 @@ class PeekStream : public mrpt::io::CStream {
 };
 
 /// Returns "" when the next object in `in` may be handed to MRPT, else why not (e.g. "a DEPTH observation
-/// declares a 4278190200x4278124286 range image (...)"). Only the classes whose deserialization trusts declared
-/// sizes are walked (CObservation3DRangeScan); others are left to MRPT, whose failures are exceptions.
+/// declares a 4278190200x4278124286 range image (...)"). The observations of the rawlog contract are walked field by
+/// field (CObservation3DRangeScan, CObservationImage with its CImage: sizes MRPT or OpenCV would allocate before
+/// reading); other classes are left to MRPT, whose failures are exceptions.
 std::string checkNextObject(PeekStream& in);
 
 }  // namespace pslam::datasets::detail
