@@ -11,6 +11,9 @@
 #include <regex>
 #include <sstream>
 
+#include <functional>
+#include <sys/wait.h>
+
 #include <gtest/gtest.h>
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/obs/CObservationImage.h>
@@ -320,6 +323,71 @@ TEST(SlamE2E, RealtimePacingTakesTheClipsDuration) {
   const auto report = nlohmann::json::parse(readText(out / "report.json"));
   EXPECT_TRUE(report["summary"].contains("frames_late"));
   EXPECT_TRUE(report["summary"].contains("max_lateness_seconds"));
+}
+
+namespace {
+/// The first `n` frames of the room clip with new stamps, written to `rawlog`.
+void restamp(const fs::path& rawlog, std::size_t n, const std::function<double(std::size_t, double)>& stamp) {
+  datasets::RawlogReader in(roomRawlog());
+  datasets::RawlogWriter out(rawlog);
+  datasets::Frame f;
+  for (std::size_t i = 0; i < n && in.next(f); ++i) {
+    f.timestamp = stamp(i, f.timestamp);
+    out.write(f);
+  }
+  out.commit();
+}
+}  // namespace
+
+// Reliability (doc/reliability.md): --realtime on stamps that jump 1e6 s ahead waited it out (11.6 days) without a
+// word. The wait is bounded (--realtime-max-wait) and the cut named in a warning; the frames after it keep their
+// pace. Run through the executable under `timeout`, so that a hang fails the test instead of stalling it.
+TEST(SlamE2E, RealtimeNeverWaitsLongerThanItsBound) {
+  const fs::path exe = fs::path(PRIORSLAM_BINARY_DIR) / "bin/slam-run";
+  if (!fs::exists(exe)) GTEST_SKIP() << "slam-run binary not built in this configuration";
+  const fs::path rawlog = tempRoot() / "jump" / "jump.rawlog";
+  restamp(rawlog, 20, [](std::size_t i, double t) { return i >= 10 ? t + 1e6 : t; });
+  const fs::path err = tempRoot() / "jump_err.txt";
+  const std::string cmd = "timeout 120 " + exe.string() + " --config " + kConfig.string() + " --rawlog " +
+                          rawlog.string() + " --out " + (tempRoot() / "jump_out").string() +
+                          " --realtime --realtime-max-wait 0.5 -q 2> " + err.string() + " > /dev/null";
+  const int rc = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 0) << readText(err);
+  const std::string text = readText(err);
+  EXPECT_NE(text.find("slam-run: warning: " + rawlog.string() +
+                      ": frame 10: its stamp is 1000000.0"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("--realtime waited 0.500 s (--realtime-max-wait)"), std::string::npos) << text;
+  const auto report = nlohmann::json::parse(readText(tempRoot() / "jump_out" / "report.json"));
+  EXPECT_EQ(report["summary"]["realtime_waits_cut"].get<int>(), 1);
+}
+
+// Reliability: a frame stamped before the one before it (frame 15 stamped as frame 5) was read in the rawlog's order
+// and the trajectory sorted by stamp, scoring the run wrong. It is an error naming the frame; --sort-stamps reads the
+// frames in stamp order with a warning.
+TEST(SlamE2E, StampsGoingBackAreAnErrorUnlessSorted) {
+  const fs::path rawlog = tempRoot() / "back" / "back.rawlog";
+  double stamp5 = 0;
+  restamp(rawlog, 20, [&](std::size_t i, double t) {
+    if (i == 5) stamp5 = t;
+    return i == 15 ? stamp5 + 0.001 : t;
+  });
+  apps::SlamRunOptions o;
+  o.config = kConfig;
+  o.rawlog = rawlog;
+  o.outDir = tempRoot() / "back_out";
+  o.progress = false;
+  const std::string error = errorOf([&] { apps::SlamRunApp(o).run(); });
+  EXPECT_NE(error.find(rawlog.string() + ": frame 15: timestamp "), std::string::npos) << error;
+  EXPECT_NE(error.find("is before the previous frame's"), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(o.outDir / "trajectory.txt"));
+  o.sortStamps = true;
+  const auto s = apps::SlamRunApp(o).run();
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("1 frame(s) stamped before the frame before them"), std::string::npos) << s.warnings[0];
+  EXPECT_EQ(s.framesProcessed, 20u);
 }
 
 TEST(SlamE2E, RelocalizesAfterAnUntrackableFrame) {

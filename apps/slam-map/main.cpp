@@ -5,6 +5,7 @@
 
 #include "pslam/apps/SlamMapApp.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/Params.h"
 
 namespace {
 /// A subcommand's result on stdout: indented JSON with --json, else its text.
@@ -32,8 +33,14 @@ int main(int argc, char** argv) {
   exportCmd->add_option("--ply", ply, "ASCII PLY: good map points (coloured by inlier ratio when the map has the point model) "
                                 "and keyframe centres (red)");
   exportCmd->add_option("--png", png, "top view from above: points and the keyframe trajectory");
-  exportCmd->add_option("--width", ex.pngWidth, "PNG width in pixels")->capture_default_str();
-  exportCmd->add_option("--height", ex.pngHeight, "PNG height in pixels")->capture_default_str();
+  // A PNG of 16384 x 16384 is already 768 MB in memory; more is no view of a map (65536 x 65536 took 12.8 GB).
+  using pslam::params::cliCheck;
+  exportCmd->add_option("--width", ex.pngWidth, "PNG width in pixels (200 to 16384)")
+      ->check(cliCheck<int>(pslam::params::inClosed(200, 16384)))
+      ->capture_default_str();
+  exportCmd->add_option("--height", ex.pngHeight, "PNG height in pixels (200 to 16384)")
+      ->check(cliCheck<int>(pslam::params::inClosed(200, 16384)))
+      ->capture_default_str();
   std::string residualsMap;
   bool residualsJson = false;
   CLI::App* residualsCmd =
@@ -47,7 +54,8 @@ int main(int argc, char** argv) {
   optimumCmd->add_option("map", opt.map, "map file")->required();
   optimumCmd->add_option("groundtruth", opt.groundTruth, "ground truth of the run (TUM, KITTI or EuRoC)")->required();
   optimumCmd->add_option("--iterations", opt.iterations, "iterations per global BA")->capture_default_str();
-  optimumCmd->add_option("--segments", opt.segments, "stretches of the keyframe path for the scale spread (0 = none)")
+  optimumCmd->add_option("--segments", opt.segments, "stretches of the keyframe path for the scale spread (>= 1)")
+      ->check(cliCheck<std::size_t>(pslam::params::atLeast(1)))
       ->capture_default_str();
   optimumCmd->add_option("--max-diff", opt.maxTimeDifference, "keyframe stamp to ground truth, seconds")
       ->capture_default_str();

@@ -26,6 +26,13 @@ int main(int argc, char** argv) {
   cli.add_flag("--threaded", o.threaded, "local mapping in a second thread (not deterministic)");
   cli.add_flag("--realtime", o.realtime,
                "hand frames over at the pace of their timestamps, as a live camera (none dropped; late ones counted)");
+  cli.add_option("--realtime-max-wait", o.realtimeMaxWait,
+                 "with --realtime: the longest wait for one frame, in seconds (a longer gap in the stamps is cut "
+                 "to it, with a warning)")
+      ->check(cliCheck<double>(pslam::params::atLeast(0.0)))
+      ->capture_default_str();
+  cli.add_flag("--sort-stamps", o.sortStamps,
+               "read frames whose stamps go back or repeat in stamp order, with a warning (default: an error)");
   std::string mapIn;
   cli.add_option("--map-in", mapIn,
                  "start from this saved map (map.slammap of an earlier run): relocalize in it, then extend it");
@@ -43,6 +50,7 @@ int main(int argc, char** argv) {
     pslam::apps::SlamRunApp app(o);
     const auto s = app.run();
     if (!s.vocabularyWarning.empty()) std::cerr << "slam-run: warning: " << s.vocabularyWarning << "\n";
+    for (const std::string& w : s.warnings) std::cerr << "slam-run: warning: " << w << "\n";
     if (!s.hasMap())
       std::cerr << "slam-run: warning: initialization never succeeded; wrote an empty trajectory\n";
     else if (s.mapLoaded && s.framesLocalized == 0)

@@ -138,6 +138,38 @@ TEST(Dataset2RawlogData, TumFr3CabinetEvery20th) {
   fs::remove_all(opt.outDir);
 }
 
+TEST(Dataset2RawlogData, IclNuimLivingRoomWithoutDepthIsDetectedAndItsPosesReflected) {
+  // The shared lr-kt3 subset: rgb.txt, no depth, livingRoom3n.gt.freiburg (and groundtruth.txt) of frame ids.
+  const fs::path root = kData / "icl_nuim" / "living_room_traj3n_first200";
+  if (!fs::is_directory(root)) GTEST_SKIP() << "shared data not found: " << root;
+  Dataset2RawlogOptions opt;
+  opt.input = root;  // format auto
+  opt.outDir = freshOut("icl");
+  opt.progress = false;
+  const auto summary = Dataset2RawlogApp(opt).run();
+  std::printf("[ measured ] %s\n", summary.line().c_str());
+  EXPECT_EQ(summary.format, "icl");
+  EXPECT_EQ(summary.frames, 200u);
+  EXPECT_EQ(summary.depthFrames, 0u);
+  std::string said;
+  for (const std::string& a : summary.assumptions) said += a + "\n";
+  EXPECT_NE(said.find("ICL-NUIM pose convention: poses reflected about the XZ plane"), std::string::npos) << said;
+  EXPECT_NE(said.find("livingRoom3n.gt.freiburg"), std::string::npos) << said;
+  // Frame 0 has no official pose; frames 1..199 do, at id / 30 Hz, reflected: y negated, the rotation S R S.
+  const Trajectory gt = readTumTrajectory(summary.groundTruthPath);
+  const Trajectory source = readTumTrajectory(root / "groundtruth.txt");
+  ASSERT_EQ(gt.size(), 199u);
+  ASSERT_EQ(source.size(), 199u);
+  const Eigen::Matrix3d S = Eigen::Vector3d(1, -1, 1).asDiagonal();
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    EXPECT_NEAR(gt[i].timestamp, source[i].timestamp / 30.0, 1e-6);
+    EXPECT_LT((gt[i].position - S * source[i].position).norm(), 1e-6);
+    const Eigen::Matrix3d R = S * source[i].orientation.toRotationMatrix() * S;
+    EXPECT_LT((gt[i].orientation.toRotationMatrix() - R).norm(), 1e-6);
+  }
+  fs::remove_all(opt.outDir);
+}
+
 TEST(Dataset2RawlogData, EurocGroundTruthOfV102IsMovedToTheCamera) {
   // The real EuRoC V1_02 body ground truth (ASL csv) with three synthetic images at three of its stamps.
   const fs::path gtCsv = kData / "trajectories_gt_only_evo_testdata" / "V102_groundtruth.csv";

@@ -93,12 +93,20 @@ ManhattanEvalResult runManhattanEval(const ManhattanEvalOptions& o) {
   while (frames.next(frame)) {
     ++nFrames;
     priors::NormalMap nm;
+    // A source's errors name the frame; the file is ours to add.
+    const auto normalsOf = [&](priors::NormalSource& source) {
+      try {
+        return source.compute(frame);
+      } catch (const Error& e) {
+        throw Error(o.rawlog.string() + ": " + e.what());
+      }
+    };
     {
       ScopedStage s(timings, "normals_" + normalSource->kind());
-      nm = normalSource->compute(frame);
+      nm = normalsOf(*normalSource);
     }
     if (referenceSource) {
-      const priors::NormalMap ref = referenceSource->compute(frame);
+      const priors::NormalMap ref = normalsOf(*referenceSource);
       if (o.accuracyPixels == "reference-planar") {
         // Only where the reference finds a plane (depth: AHC-style segments; rawlog: every stored normal).
         cv::Mat planarRef(ref.normals.size(), CV_32FC3, cv::Scalar::all(0));

@@ -60,7 +60,13 @@ NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
   datasets::Frame frame;
   while (reader.next(frame)) {
     const auto t0 = std::chrono::steady_clock::now();
-    const NormalMap nm = source->compute(frame);
+    const NormalMap nm = [&] {
+      try {
+        return source->compute(frame);
+      } catch (const Error& e) {  // names the frame; the file is ours to add
+        throw Error(o.input.string() + ": " + e.what());
+      }
+    }();
     totalMs += msSince(t0);
     frame.normals = encodeNormalMap(nm.normals, o.planarOnly ? nm.planarMask : cv::Mat());
     cv::Mat stored;
@@ -70,6 +76,7 @@ NormalPriorsResult runNormalPriors(const NormalPriorsOptions& o) {
     ++r.frames;
     progress.update(r.frames, std::to_string(nm.planeCount) + " planes");
   }
+  require(r.frames > 0, o.input.string(), "rawlog has no CAMERA frame");  // as every other reader of rawlogs
   writer.commit();
   if (gtOut) {
     std::ifstream in(gtIn, std::ios::binary);

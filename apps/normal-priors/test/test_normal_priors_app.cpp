@@ -126,3 +126,54 @@ TEST(NormalPriorsConfig, ReadStrictlyWithTheTrackerSection) {
   EXPECT_EQ(errorFor("[Normals]\nminDepth = 1\n"), "F: [Normals]: unknown section (did you mean NormalsFromDepth?)");
   fs::remove(path);
 }
+
+// Reliability (doc/reliability.md): an empty rawlog became a 0-frame output with exit code 0 (the other tools refuse
+// it). Refused naming the file; nothing written.
+TEST(NormalPriorsApp, EmptyRawlogIsRefused) {
+  const fs::path dir = fs::temp_directory_path() / ("pslam_normal_priors_empty_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  struct Cleanup {
+    fs::path p;
+    ~Cleanup() { fs::remove_all(p); }
+  } cleanup{dir};
+  {
+    pslam::datasets::RawlogWriter w(dir / "empty.rawlog");
+    w.commit();
+  }
+  NormalPriorsOptions o;
+  o.input = dir / "empty.rawlog";
+  o.output = dir / "out" / "empty_n.rawlog";
+  o.progress = false;
+  try {
+    runNormalPriors(o);
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& err) {
+    EXPECT_NE(std::string(err.what()).find((dir / "empty.rawlog").string() + ": rawlog has no CAMERA frame"),
+              std::string::npos)
+        << err.what();
+  }
+  EXPECT_FALSE(fs::exists(o.output));
+  // A rawlog without DEPTH for normals from depth: the file and the frame (the frame alone was named).
+  {
+    pslam::datasets::RawlogWriter w(dir / "nodepth.rawlog");
+    pslam::datasets::Frame f;
+    f.timestamp = 1.0;
+    f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(90));
+    f.camera.ncols = 64;
+    f.camera.nrows = 48;
+    f.camera.fx(50.0);
+    f.camera.fy(50.0);
+    f.camera.cx(32.0);
+    f.camera.cy(24.0);
+    w.write(f);
+    w.commit();
+  }
+  o.input = dir / "nodepth.rawlog";
+  try {
+    runNormalPriors(o);
+    FAIL() << "expected pslam::Error";
+  } catch (const pslam::Error& err) {
+    EXPECT_EQ(std::string(err.what()).rfind((dir / "nodepth.rawlog").string() + ": frame 0: has no DEPTH channel", 0), 0u)
+        << err.what();
+  }
+}

@@ -39,6 +39,8 @@ namespace {
 void lockOutput(const Manifest& m) {
   std::error_code ec;
   fs::create_directories(m.output, ec);
+  // The reason is the folder's (a read-only file system), not the lock file's "No such file or directory".
+  if (ec) throw Error(m.output.string() + ": cannot create the output folder (" + ec.message() + ")");
   const fs::path lock = m.output / ".slam-batch.lock";
   const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) throw Error(lock.string() + ": cannot open (" + std::strerror(errno) + ")");
@@ -51,6 +53,10 @@ void lockOutput(const Manifest& m) {
 int commandRun(const CommonOptions& c, std::size_t jobs, bool noCollect) {
   const Manifest m = load(c);
   lockOutput(m);
+  // Under the lock no other `run` works here: temporaries of ended processes are leftovers (kill -9, a crash).
+  const std::vector<fs::path> removed = removeStaleTemporaries(m);
+  if (!c.quiet)
+    for (const fs::path& p : removed) std::cerr << "slam-batch: removed the stale temporary " << p.string() << "\n";
   const std::vector<const RunSpec*> todo = runsToDo(m);
   LocalRunOptions o;
   o.jobs = jobs;
@@ -126,7 +132,7 @@ int commandStatus(const CommonOptions& c, bool verbose) {
     counts[state]++;
     if (verbose || s == RunState::Failed || state.rfind("slurm:", 0) == 0 || s == RunState::Stale) {
       std::string line = "  " + r.id + "  " + state;
-      if (s == RunState::Failed) line += "  " + rec.error;
+      if (s == RunState::Failed || (s == RunState::Stale && !rec.error.empty())) line += "  " + rec.error;
       line += note;
       lines.push_back(line);
     }
@@ -135,6 +141,8 @@ int commandStatus(const CommonOptions& c, bool verbose) {
   for (const auto& [state, n] : counts) std::cout << " " << state << " " << n;
   std::cout << "\n";
   for (const std::string& l : lines) std::cout << l << "\n";
+  for (const fs::path& p : staleTemporaries(m))
+    std::cout << "  stale temporary " << p.string() << " (its process has ended; the next `run` removes it)\n";
   if (!slurmError.empty()) std::cout << "  (Slurm not asked: " << slurmError << ")\n";
   return counts["done"] == m.runs.size() ? 0 : 3;
 }

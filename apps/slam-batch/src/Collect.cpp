@@ -364,7 +364,7 @@ eval::Plot atePlot(const Manifest& m, const std::vector<RunResult>& rows, std::s
 }  // namespace
 
 std::vector<fs::path> collect(const Manifest& m, const std::vector<RunResult>& rows) {
-  OutputSet outputs({m.file});
+  OutputSet outputs(manifestInputs(m));
   const std::string csv = resultsCsv(m, rows);
   const nlohmann::json json = resultsJson(m, rows);
   const std::string md = summaryMarkdown(m, rows);

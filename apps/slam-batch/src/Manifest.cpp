@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <map>
 #include <regex>
 #include <set>
 #include <sstream>
 
+#include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
 #include "pslam/system/SlamParams.h"
 
@@ -47,10 +49,15 @@ struct Reader {
     if (!node.IsMap()) fail(node, what + " must be a mapping of keys to values");
   }
 
-  /// Unknown keys are errors that list the known ones.
+  /// Unknown keys are errors that list the known ones; so is a key given twice (YAML readers keep one of the two,
+  /// so the other would be ignored without a word).
   void onlyKeys(const YAML::Node& node, const std::string& where, const std::vector<std::string>& known) const {
+    std::map<std::string, YAML::Mark> seen;
     for (const auto& kv : node) {
       const std::string key = kv.first.as<std::string>();
+      if (const auto [it, fresh] = seen.emplace(key, kv.first.Mark()); !fresh)
+        fail(kv.first, "key '" + key + "' given twice in " + where +
+                           (it->second.is_null() ? std::string() : " (first on line " + std::to_string(it->second.line + 1) + ")"));
       if (std::find(known.begin(), known.end(), key) == known.end()) {
         std::string list;
         for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
@@ -270,7 +277,28 @@ Manifest loadManifest(const fs::path& fileIn, const fs::path& outputOverride) {
       }
     }
   }
+  // ---- outputs: collect's files and the run folders may never be an input (a ground truth stored as
+  // <output>/results.csv was overwritten by the collect of `run`).
+  const std::vector<fs::path> inputs = manifestInputs(m);
+  for (const fs::path& out : collectOutputs(m)) requireNotAnInput(out, OutputKind::file(), inputs);
   return m;
+}
+
+std::vector<fs::path> manifestInputs(const Manifest& m) {
+  std::vector<fs::path> in{m.file};
+  if (!m.slamRun.empty()) in.push_back(m.slamRun);
+  for (const DatasetSpec& d : m.datasets) {
+    in.insert(in.end(), {d.rawlog, d.rawlog.parent_path() / (d.rawlog.stem().string() + "_Images"), d.groundTruth,
+                         d.config});
+  }
+  for (const VariantSpec& v : m.variants) in.push_back(v.config);
+  return in;
+}
+
+std::vector<fs::path> collectOutputs(const Manifest& m) {
+  std::vector<fs::path> out{m.output / "results.csv", m.output / "results.json", m.output / "summary.md"};
+  for (const DatasetSpec& d : m.datasets) out.push_back(m.output / ("ate_" + d.name + ".png"));
+  return out;
 }
 
 }  // namespace pslam::batch

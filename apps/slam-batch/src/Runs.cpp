@@ -1,7 +1,7 @@
 #include "pslam/batch/Runs.h"
 
 #include <fcntl.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -14,6 +14,8 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <regex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -28,9 +30,11 @@ namespace fs = std::filesystem;
 // ---------------------------------------------------------------- records
 
 nlohmann::json RunRecord::toJson() const {
-  return {{"status", status},           {"hash", hash},       {"exit_code", exitCode},
-          {"error", error},             {"wall_s", wallSeconds}, {"cpu_s", cpuSeconds},
-          {"host", host},               {"command", command}};
+  nlohmann::json j = {{"status", status},           {"hash", hash},       {"exit_code", exitCode},
+                      {"error", error},             {"wall_s", wallSeconds}, {"cpu_s", cpuSeconds},
+                      {"host", host},               {"command", command}};
+  if (!outputs.empty()) j["outputs"] = outputs;
+  return j;
 }
 
 RunRecord RunRecord::fromJson(const nlohmann::json& j) {
@@ -43,6 +47,7 @@ RunRecord RunRecord::fromJson(const nlohmann::json& j) {
   r.cpuSeconds = j.value("cpu_s", 0.0);
   r.host = j.value("host", std::string());
   r.command = j.value("command", std::vector<std::string>());
+  r.outputs = j.value("outputs", std::map<std::string, std::uintmax_t>());
   if (r.status != "ok" && r.status != "failed") throw Error("status '" + r.status + "' is neither ok nor failed");
   return r;
 }
@@ -73,7 +78,74 @@ RunState runState(const Manifest& m, const RunSpec& run, RunRecord* record) {
   }
   if (record) *record = r;
   if (r.hash != run.hash) return RunState::Stale;
-  return r.status == "ok" ? RunState::Done : RunState::Failed;
+  if (r.status != "ok") return RunState::Failed;
+  // Done only with what the record vouches for: a deleted or changed output makes the run stale (run again).
+  std::string mismatch;
+  if (r.outputs.empty()) mismatch = "run.json lists no outputs";
+  for (const char* required : {"trajectory.txt", "report.json"})
+    if (mismatch.empty() && !r.outputs.count(required)) mismatch = std::string(required) + ": not in run.json";
+  for (const auto& [name, bytes] : r.outputs) {
+    if (!mismatch.empty()) break;
+    const fs::path f = folder / name;
+    if (!fs::is_regular_file(f, ec)) mismatch = name + ": missing";
+    else if (const auto now = fs::file_size(f, ec); now != bytes)
+      mismatch = name + ": " + std::to_string(now) + " bytes, the record says " + std::to_string(bytes);
+  }
+  if (mismatch.empty()) return RunState::Done;
+  if (record) record->error = folder.string() + ": outputs do not match run.json (" + mismatch + ")";
+  return RunState::Stale;
+}
+
+namespace {
+/// "<host> <pid>" of the process that made a temporary run folder (its `.owner` file).
+const char* const kOwnerFile = ".owner";
+
+std::string thisHost() {
+  char buf[256] = {0};
+  if (::gethostname(buf, sizeof buf - 1) != 0) return "";
+  return buf;
+}
+
+/// The pid in a temporary's name (".seed-1.tmp-123", ".seed-1.old-123"), or -1.
+long long temporaryPid(const std::string& name) {
+  static const std::regex re(R"(^\.seed-[0-9]+\.(tmp|old)-([0-9]{1,9})$)");
+  std::smatch mm;
+  return std::regex_match(name, mm, re) ? std::stoll(mm[2].str()) : -1;
+}
+
+bool processExists(long long pid) { return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM; }
+}  // namespace
+
+std::vector<fs::path> staleTemporaries(const Manifest& m) {
+  std::set<fs::path> parents;
+  for (const RunSpec& r : m.runs) parents.insert(m.runFolder(r).parent_path());
+  const std::string host = thisHost();
+  std::vector<fs::path> out;
+  std::error_code ec;
+  for (const fs::path& parent : parents) {
+    if (!fs::is_directory(parent, ec)) continue;
+    for (const auto& e : fs::directory_iterator(parent, ec)) {
+      const long long pid = temporaryPid(e.path().filename().string());
+      if (pid <= 0 || !e.is_directory(ec)) continue;
+      std::ifstream owner(e.path() / kOwnerFile);
+      std::string ownerHost;
+      if (owner >> ownerHost && ownerHost != host) continue;  // another node's run (Slurm): not ours to judge
+      if (!processExists(pid)) out.push_back(e.path());
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<fs::path> removeStaleTemporaries(const Manifest& m) {
+  std::vector<fs::path> removed;
+  for (const fs::path& p : staleTemporaries(m)) {
+    std::error_code ec;
+    fs::remove_all(p, ec);
+    if (ec) throw Error(p.string() + ": cannot remove this stale temporary run folder (" + ec.message() + ")");
+    removed.push_back(p);
+  }
+  return removed;
 }
 
 std::vector<const RunSpec*> runsToDo(const Manifest& m) {
@@ -106,12 +178,6 @@ extern "C" void onStopSignal(int sig) { g_stopSignal = sig; }
 
 double nowSeconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-std::string hostName() {
-  char buf[256] = {0};
-  if (::gethostname(buf, sizeof buf - 1) != 0) return "";
-  return buf;
 }
 
 /// The last non-empty line of a text file (slam-run's one-line error), at most 500 characters.
@@ -158,12 +224,34 @@ RunExecution::RunExecution(const Manifest& m, const RunSpec& run) : manifest_(&m
   fs::remove_all(temp_, ec);  // a leftover of an earlier process with our pid
   if (!fs::create_directory(temp_, ec) || ec)
     throw Error(temp_.string() + ": cannot create the run's temporary folder (" + ec.message() + ")");
-  {
-    std::ofstream cfg(temp_ / "config.ini");
-    cfg << "; effective configuration of " << run.id << " (" << run.config.string() << " with its overrides)\n"
-        << run.effectiveConfig;
-    if (!cfg) throw Error((temp_ / "config.ini").string() + ": cannot write");
+  try {
+    start();
+  } catch (...) {
+    // Nothing of a run that never started stays behind (a full disk left .seed-N.tmp-PID/config.ini).
+    fs::remove_all(temp_, ec);
+    throw;
   }
+}
+
+namespace {
+/// Writes `text` to `file`; throws naming the file and the reason (ENOSPC, EFBIG, ...).
+void writeRunFile(const fs::path& file, const std::string& text) {
+  errno = 0;
+  std::ofstream out(file);
+  out << text;
+  out.flush();
+  if (!out) throw Error(file.string() + ": cannot write (" + std::strerror(errno ? errno : EIO) + ")");
+  out.close();
+  if (!out) throw Error(file.string() + ": cannot write (" + std::strerror(errno ? errno : EIO) + ")");
+}
+}  // namespace
+
+void RunExecution::start() {
+  const Manifest& m = *manifest_;
+  const RunSpec& run = *run_;
+  writeRunFile(temp_ / "config.ini", "; effective configuration of " + run.id + " (" + run.config.string() +
+                                         " with its overrides)\n" + run.effectiveConfig);
+  writeRunFile(temp_ / kOwnerFile, thisHost() + " " + std::to_string(::getpid()) + "\n");
 
   const DatasetSpec& d = m.dataset(run);
   command_ = {slamRunExecutable(m).string(), "--config", run.config.string(), "--rawlog", d.rawlog.string(),
@@ -172,30 +260,32 @@ RunExecution::RunExecution(const Manifest& m, const RunSpec& run) : manifest_(&m
   if (d.last) command_.insert(command_.end(), {"--last", std::to_string(*d.last)});
   for (const std::string& o : run.overrides) command_.insert(command_.end(), {"--set", o});
 
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  const std::string log = (temp_ / "log.txt").string();
-  posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  posix_spawnattr_t attr;
-  posix_spawnattr_init(&attr);
-  sigset_t none;
-  sigemptyset(&none);
-  posix_spawnattr_setsigmask(&attr, &none);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK);
   std::vector<char*> argv;
   for (std::string& a : command_) argv.push_back(a.data());
   argv.push_back(nullptr);
+  const std::string log = (temp_ / "log.txt").string();
+  const pid_t parent = ::getpid();
   start_ = nowSeconds();
-  const int rc = ::posix_spawn(&pid_, argv[0], &actions, &attr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  posix_spawnattr_destroy(&attr);
-  if (rc != 0) {
-    pid_ = -1;
-    fs::remove_all(temp_, ec);
-    throw Error(command_[0] + ": cannot start (" + std::strerror(rc) + ")");
+  // fork + exec rather than posix_spawn: the child must ask for PR_SET_PDEATHSIG before it runs slam-run, so
+  // that a slam-batch ended by SIGKILL takes its runs with it. Only async-signal-safe calls after fork.
+  const pid_t pid = ::fork();
+  if (pid < 0) throw Error(command_[0] + ": cannot start (" + std::strerror(errno) + ")");
+  if (pid == 0) {
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != parent) ::_exit(127);  // the parent died before the request took effect
+    sigset_t none;
+    sigemptyset(&none);
+    ::sigprocmask(SIG_SETMASK, &none, nullptr);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::signal(sig, SIG_DFL);
+    const int in = ::open("/dev/null", O_RDONLY);
+    const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (in < 0 || out < 0 || ::dup2(in, 0) < 0 || ::dup2(out, 1) < 0 || ::dup2(out, 2) < 0) ::_exit(127);
+    ::execve(argv[0], argv.data(), environ);
+    const char msg[] = "slam-batch: cannot execute slam-run\n";
+    [[maybe_unused]] const auto n = ::write(2, msg, sizeof msg - 1);
+    ::_exit(127);
   }
+  pid_ = pid;
 }
 
 RunExecution::~RunExecution() {
@@ -222,7 +312,7 @@ RunRecord RunExecution::finish(int waitStatus, double cpuSeconds) {
   rec.hash = run_->hash;
   rec.wallSeconds = elapsedSeconds();
   rec.cpuSeconds = cpuSeconds;
-  rec.host = hostName();
+  rec.host = thisHost();
   rec.command = command_;
   if (WIFEXITED(waitStatus)) rec.exitCode = WEXITSTATUS(waitStatus);
   else if (WIFSIGNALED(waitStatus)) rec.exitCode = 128 + WTERMSIG(waitStatus);
@@ -239,10 +329,15 @@ RunRecord RunExecution::finish(int waitStatus, double cpuSeconds) {
     else if (rec.error.empty())
       rec.error = "slam-run exited with code " + std::to_string(rec.exitCode) + " and printed nothing";
   }
+  if (rec.status == "ok")
+    for (const auto& e : fs::directory_iterator(temp_, ec))
+      if (e.is_regular_file(ec) && e.path().filename() != kOwnerFile)
+        rec.outputs[e.path().filename().string()] = e.file_size(ec);
+  fs::remove(temp_ / kOwnerFile, ec);
   {
-    std::ofstream out(temp_ / "run.json");
-    out << std::setw(1) << rec.toJson() << "\n";
-    if (!out) throw Error((temp_ / "run.json").string() + ": cannot write");
+    std::ostringstream text;
+    text << std::setw(1) << rec.toJson() << "\n";
+    writeRunFile(temp_ / "run.json", text.str());
   }
   // Replace an earlier record of this run (checked to be one) in two renames, so the folder is never absent
   // while holding something, and never half-written.

@@ -1,12 +1,18 @@
 // Manifest parsing and validation (errors are one line naming the file, line and key), run expansion, the
 // resume hash, the statistics of the summary, the CSV and the sbatch script.
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
+#include "pslam/batch/BatchApp.h"
 #include "pslam/batch/Collect.h"
 #include "pslam/batch/Manifest.h"
 #include "pslam/batch/Runs.h"
@@ -62,6 +68,13 @@ fs::path write(const std::string& name, const std::string& text) {
   const fs::path p = dir() / name;
   std::ofstream(p) << text;
   return p;
+}
+
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
 }
 
 std::string errorOf(const std::string& text) {
@@ -242,8 +255,9 @@ TEST(Runs, FolderWithoutARunRecordIsNeverReplaced) {
   }
   std::ofstream(m.runFolder(r) / "run.json") << "{\"status\": \"ok\"}";
   EXPECT_THROW(runState(m, r), Error);  // no hash: not a valid record
+  // A record of success without the outputs it vouches for is no result (Runs.DoneOnlyWhenTheOutputsMatchTheRecord).
   std::ofstream(m.runFolder(r) / "run.json") << nlohmann::json{{"status", "ok"}, {"hash", r.hash}}.dump();
-  EXPECT_EQ(runState(m, r), RunState::Done);
+  EXPECT_EQ(runState(m, r), RunState::Stale);
   std::ofstream(m.runFolder(r) / "run.json") << nlohmann::json{{"status", "failed"}, {"hash", r.hash}}.dump();
   EXPECT_EQ(runState(m, r), RunState::Failed);
   std::ofstream(m.runFolder(r) / "run.json") << nlohmann::json{{"status", "ok"}, {"hash", "0"}}.dump();
@@ -280,4 +294,179 @@ TEST(Slurm, RunCommandCapturesOutputAndExitCode) {
   EXPECT_EQ(ok.exitCode, 3);
   EXPECT_EQ(ok.output, "out\nerr\n");
   EXPECT_EQ(runCommand({"/nonexistent/tool"}).exitCode, 127);
+}
+
+// Reliability (doc/reliability.md): a second `datasets:` or `seeds:` key was silently ignored by the YAML reader.
+TEST(Manifest, DuplicateKeysAreErrors) {
+  const std::string seedsTwice = errorOf(validText("seeds: [3]\n"));
+  EXPECT_NE(seedsTwice.find("line 16: key 'seeds' given twice in the manifest (first on line 15)"), std::string::npos)
+      << seedsTwice;
+  const std::string datasetsTwice = errorOf(validText("datasets: []\n"));
+  EXPECT_NE(datasetsTwice.find("key 'datasets' given twice in the manifest (first on line 3)"), std::string::npos)
+      << datasetsTwice;
+  const std::string inADataset =
+      errorOf(validText().replace(validText().find("    last: 39\n"), 13, "    last: 39\n    last: 20\n"));
+  EXPECT_NE(inADataset.find("key 'last' given twice in datasets[0]"), std::string::npos) << inADataset;
+}
+
+// Reliability: collect's outputs (results.csv, results.json, summary.md, ate_<dataset>.png) may never be an input
+// of the manifest: a ground truth stored as <output>/results.csv was overwritten by `run`'s collect.
+TEST(Manifest, CollectOutputsThatAreInputsAreRefusedAtLoad) {
+  fs::create_directories(dir() / "out_gt");
+  std::ofstream(dir() / "out_gt" / "results.csv") << "0 0 0 0 0 0 0 1\n";
+  std::string text = validText();
+  text.replace(text.find("output: out"), 11, "output: out_gt");
+  for (std::size_t at = text.find("groundtruth: gt.txt"); at != std::string::npos; at = text.find("groundtruth: gt.txt"))
+    text.replace(at, 19, "groundtruth: out_gt/results.csv");
+  const std::string e = errorOf(text);
+  EXPECT_NE(e.find((dir() / "out_gt" / "results.csv").string() + ": is the input"), std::string::npos) << e;
+  EXPECT_EQ(readFile(dir() / "out_gt" / "results.csv"), "0 0 0 0 0 0 0 1\n");
+  // The same through collect() on a manifest loaded before the file was named (collect checks again).
+  const Manifest m = loadManifest(write("ok_gt.yaml", validText()), dir() / "out_gt2");
+  Manifest tampered = m;
+  tampered.datasets[0].groundTruth = m.output / "summary.md";
+  fs::create_directories(m.output);
+  std::ofstream(m.output / "summary.md") << "truth";
+  EXPECT_THROW(collect(tampered, {}), Error);
+  EXPECT_EQ(readFile(m.output / "summary.md"), "truth");
+}
+
+namespace {
+/// A pid that no process has now: a child that has exited and been reaped.
+pid_t deadPid() {
+  const pid_t pid = ::fork();
+  if (pid == 0) ::_exit(0);
+  int st = 0;
+  ::waitpid(pid, &st, 0);
+  return pid;
+}
+void writeOutputsAndRecord(const fs::path& folder, const RunSpec& r) {
+  fs::create_directories(folder);
+  std::ofstream(folder / "trajectory.txt") << "1 0 0 0 0 0 0 1\n";
+  std::ofstream(folder / "report.json") << "{}\n";
+  RunRecord rec;
+  rec.status = "ok";
+  rec.hash = r.hash;
+  rec.outputs = {{"trajectory.txt", 16}, {"report.json", 3}};
+  std::ofstream(folder / "run.json") << rec.toJson().dump();
+}
+}  // namespace
+
+// Reliability: a run is done only when the outputs its record vouches for exist with the recorded sizes (a
+// deleted trajectory.txt stayed `done`, and collect then said "never initialized").
+TEST(Runs, DoneOnlyWhenTheOutputsMatchTheRecord) {
+  const Manifest m = loadManifest(write("ok.yaml", validText()), dir() / "out_outputs");
+  const RunSpec& r = m.runs[0];
+  writeOutputsAndRecord(m.runFolder(r), r);
+  EXPECT_EQ(runState(m, r), RunState::Done);
+  fs::remove(m.runFolder(r) / "trajectory.txt");
+  RunRecord rec;
+  EXPECT_EQ(runState(m, r, &rec), RunState::Stale);
+  EXPECT_NE(rec.error.find("trajectory.txt: missing"), std::string::npos) << rec.error;
+  std::ofstream(m.runFolder(r) / "trajectory.txt") << "1 0 0 0 0 0 0 1\n2 0 0 0 0 0 0 1\n";
+  EXPECT_EQ(runState(m, r, &rec), RunState::Stale);
+  EXPECT_NE(rec.error.find("trajectory.txt: 32 bytes, the record says 16"), std::string::npos) << rec.error;
+  EXPECT_EQ(runsToDo(m).size(), m.runs.size());
+}
+
+// Reliability: the temporaries of runs whose slam-batch died (kill -9) are listed and removed by the next run;
+// those of a live process are kept.
+TEST(Runs, StaleTemporariesOfDeadProcessesAreFoundAndRemoved) {
+  const Manifest m = loadManifest(write("ok.yaml", validText()), dir() / "out_stale");
+  const fs::path parent = m.runFolder(m.runs[0]).parent_path();
+  fs::create_directories(parent);
+  const fs::path dead = parent / (".seed-1.tmp-" + std::to_string(deadPid()));
+  const fs::path live = parent / (".seed-2.tmp-" + std::to_string(::getpid()));
+  fs::create_directories(dead);
+  std::ofstream(dead / "config.ini") << "x";
+  fs::create_directories(live);
+  const std::vector<fs::path> found = staleTemporaries(m);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0], dead);
+  EXPECT_EQ(removeStaleTemporaries(m), found);
+  EXPECT_FALSE(fs::exists(dead));
+  EXPECT_TRUE(fs::exists(live));
+  fs::remove_all(live);
+}
+
+// Reliability: a run that cannot start (slam-run missing; a full disk while config.ini is written) leaves no
+// temporary folder behind.
+TEST(Runs, ARunThatCannotStartLeavesNoTemporary) {
+  std::string text = validText();
+  text.insert(text.find("datasets:"), "slam_run: gt.txt\n");  // a file, not an executable
+  const Manifest m = loadManifest(write("noexe.yaml", text), dir() / "out_noexe");
+  const RunSpec& r = m.runs[0];
+  EXPECT_THROW(RunExecution(m, r), Error);
+  const fs::path parent = m.runFolder(r).parent_path();
+  ASSERT_TRUE(fs::exists(parent));
+  EXPECT_TRUE(fs::is_empty(parent)) << fs::directory_iterator(parent)->path();
+  // A full disk, as a file-size limit: writing config.ini fails (EFBIG instead of ENOSPC).
+  struct rlimit old {};
+  ::getrlimit(RLIMIT_FSIZE, &old);
+  const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+  struct rlimit tiny = old;
+  tiny.rlim_cur = 16;
+  ::setrlimit(RLIMIT_FSIZE, &tiny);
+  std::string message;
+  try {
+    RunExecution e(m, r);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  ::setrlimit(RLIMIT_FSIZE, &old);
+  std::signal(SIGXFSZ, oldHandler);
+  EXPECT_NE(message.find("config.ini: cannot write"), std::string::npos) << message;
+  EXPECT_TRUE(fs::is_empty(parent));
+}
+
+// Reliability: an output folder that cannot be made was reported as the lock file's "No such file or directory"
+// (on a read-only file system); the message names the folder and the real reason.
+TEST(Runs, AnOutputFolderThatCannotBeMadeIsNamedWithItsReason) {
+  std::ofstream(dir() / "plain_file") << "x";
+  CommonOptions c;
+  c.manifest = write("ok.yaml", validText());
+  c.out = dir() / "plain_file" / "out";
+  c.quiet = true;
+  try {
+    commandRun(c, 1, true);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), c.out.string() + ": cannot create the output folder (Not a directory)");
+  }
+}
+
+// Reliability: a static ground truth was status `ok` with ATE 2e-16 through collect; slam-eval refuses it, and the
+// run is recorded as failed to evaluate, with slam-eval's line naming the file.
+TEST(Collect, ADegenerateGroundTruthIsAFailedEvaluation) {
+  std::ofstream gt(dir() / "static_gt.txt");
+  std::ofstream est(dir() / "moving.txt");
+  for (int i = 0; i < 40; ++i) {
+    gt << 10.0 + 0.1 * i << " 1 2 3 0 0 0 1\n";
+    est << 10.0 + 0.1 * i << " " << std::cos(0.1 * i) << " " << std::sin(0.1 * i) << " " << 0.01 * i << " 0 0 0 1\n";
+  }
+  gt.close();
+  est.close();
+  std::string text = validText();
+  for (std::size_t at = text.find("groundtruth: gt.txt"); at != std::string::npos; at = text.find("groundtruth: gt.txt"))
+    text.replace(at, 19, "groundtruth: static_gt.txt");
+  const Manifest m = loadManifest(write("static.yaml", text), dir() / "out_static");
+  const RunSpec& r = m.runs[0];
+  fs::create_directories(m.runFolder(r));
+  fs::copy_file(dir() / "moving.txt", m.runFolder(r) / "trajectory.txt");
+  std::ofstream(m.runFolder(r) / "report.json")
+      << R"({"summary": {"frames_processed": 40, "frames_tracked": 40, "initialized_at_frame": 0, "keyframes": 5,
+          "map_points": 100, "resets": 0, "relocalizations": 0}})";
+  RunRecord rec;
+  rec.status = "ok";
+  rec.hash = r.hash;
+  rec.outputs = {{"trajectory.txt", fs::file_size(m.runFolder(r) / "trajectory.txt")},
+                 {"report.json", fs::file_size(m.runFolder(r) / "report.json")}};
+  std::ofstream(m.runFolder(r) / "run.json") << rec.toJson().dump();
+  ASSERT_EQ(runState(m, r), RunState::Done);
+  const std::vector<RunResult> rows = evaluateRuns(m, false);
+  EXPECT_EQ(rows[0].status, "eval-failed");
+  EXPECT_NE(rows[0].error.find((dir() / "static_gt.txt").string() + ": all 40 poses are at one position"),
+            std::string::npos)
+      << rows[0].error;
+  EXPECT_FALSE(rows[0].ateRmse.has_value());
 }

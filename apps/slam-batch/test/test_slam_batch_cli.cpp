@@ -170,6 +170,45 @@ TEST(SlamBatchCli, InterruptLeavesNoHalfWrittenRunFolder) {
       << "a slam-run child is still running";
 }
 
+// Reliability (doc/reliability.md): kill -9 of slam-batch takes its slam-run children with it (they were left
+// running to completion, orphaned); `status` lists the temporaries the killed process left, and the next `run`
+// removes them and does the runs.
+TEST(SlamBatchCli, KilledBatchTakesItsRunsAlongAndItsTemporariesAreCleanedUpLater) {
+  const fs::path manifest = writeManifest(root(), "kill9.yaml", datasets());
+  const fs::path out = root() / "out_kill9";
+  std::vector<std::string> args = {(kBin / "slam-batch").string(), "run", manifest.string(), "--out", out.string(),
+                                   "-j", "2", "-q"};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  ASSERT_EQ(::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ), 0);
+  const auto t0 = std::chrono::steady_clock::now();
+  while (temporaries(out).size() < 2 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(30))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_EQ(temporaries(out).size(), 2u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ::kill(pid, SIGKILL);
+  int st = 0;
+  ASSERT_EQ(::waitpid(pid, &st, 0), pid);
+  // The children get SIGTERM from the kernel when their parent dies; give them a moment to end.
+  const std::string pattern = "pgrep -f -- '--out " + out.string() + "/.*[.]seed-'";
+  const auto t1 = std::chrono::steady_clock::now();
+  while (run(pattern).exitCode == 0 && std::chrono::steady_clock::now() - t1 < std::chrono::seconds(10))
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(run(pattern).exitCode, 1) << "a slam-run child outlived its killed slam-batch";
+  const std::vector<fs::path> left = temporaries(out);
+  ASSERT_FALSE(left.empty());  // a SIGKILL leaves slam-batch no chance to clean up
+  const ToolResult status = run(batch("status " + manifest.string() + " --out " + out.string()));
+  for (const fs::path& p : left)
+    if (p.filename().string().rfind(".seed-", 0) == 0)
+      EXPECT_NE(status.output.find("stale temporary " + p.string()), std::string::npos) << status.output;
+  const ToolResult again = run(batch("run " + manifest.string() + " --out " + out.string() + " -j 2"));
+  EXPECT_EQ(again.exitCode, 0) << again.output;
+  EXPECT_NE(again.output.find("slam-batch: removed the stale temporary "), std::string::npos) << again.output;
+  EXPECT_TRUE(temporaries(out).empty());
+}
+
 TEST(SlamBatchCli, ManifestErrorsAreOneLine) {
   const fs::path manifest = root() / "unknown_key.yaml";
   std::ofstream(manifest) << "output: o\nworkers: 3\n";

@@ -79,10 +79,42 @@ Trajectory readOne(const std::filesystem::path& path, TrajectoryFormat format, c
 }
 }  // namespace
 
+namespace {
+/// Refuses a trajectory that no evaluation can score: every pose at one stamp (nothing to associate in time), or,
+/// when it is to be aligned, every pose at one position (a static ground truth makes the Sim(3) scale 0 and any
+/// estimate "perfect"; a static estimate leaves the alignment undetermined). `what`: "ground truth" / "estimate".
+void requireNotDegenerate(const Trajectory& t, const std::filesystem::path& path, bool indexOnly, bool aligned,
+                          const char* what) {
+  if (t.size() < 2) return;
+  char buf[256];
+  const bool sameStamp = std::all_of(t.begin(), t.end(), [&](const StampedPose& p) { return p.timestamp == t[0].timestamp; });
+  if (sameStamp && !indexOnly) {
+    std::snprintf(buf, sizeof buf, ": all %zu poses have the timestamp %.6f: the %s has no time to associate by",
+                  t.size(), t[0].timestamp, what);
+    throw Error(path.string() + buf);
+  }
+  if (!aligned) return;
+  double spread = 0.0, size = 1.0;
+  for (const StampedPose& p : t) {
+    spread = std::max(spread, (p.position - t[0].position).norm());
+    size = std::max(size, p.position.norm());
+  }
+  if (spread <= 1e-9 * size) {
+    std::snprintf(buf, sizeof buf, ": all %zu poses are at one position (%g %g %g): a static %s cannot be aligned",
+                  t.size(), t[0].position.x(), t[0].position.y(), t[0].position.z(), what);
+    throw Error(path.string() + buf +
+                (std::string(what) == "ground truth" ? " (the Sim(3) scale would be 0 and any estimate perfect)" : ""));
+  }
+}
+}  // namespace
+
 EvalResult EvalApp::run(const std::filesystem::path& gtPath, const std::filesystem::path& estPath) const {
   bool gtIndexOnly = false, estIndexOnly = false;
   const Trajectory gt = readOne(gtPath, options_.gtFormat, options_.gtTimes, gtIndexOnly);
   const Trajectory est = readOne(estPath, options_.estFormat, options_.estTimes, estIndexOnly);
+  const bool aligned = options_.alignment != AlignmentMode::None && options_.alignFromGt.empty();
+  requireNotDegenerate(gt, gtPath, gtIndexOnly, aligned, "ground truth");
+  requireNotDegenerate(est, estPath, estIndexOnly, aligned, "estimate");
   std::vector<std::string> warnings;
   for (const auto& note : {duplicateStampNote(gt, gtPath), duplicateStampNote(est, estPath)})
     if (!note.empty()) warnings.push_back(note);

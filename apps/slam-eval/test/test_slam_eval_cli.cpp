@@ -192,3 +192,44 @@ TEST(SlamEvalCli, StampOrderIsCheckedAndDuplicatesAreNamed) {
       << dup.output;
   fs::remove_all(d);
 }
+
+// Reliability (doc/reliability.md): degenerate data is refused, never scored as perfect. A ground truth whose poses
+// all sit at one position gave scale 0 and ATE 0.000000 with exit code 0; an estimate whose stamps are all equal
+// was scored too (with only a warning); a static estimate is refused as well. One line naming the file.
+TEST(SlamEvalCli, DegenerateTrajectoriesAreRefused) {
+  const fs::path d = fs::temp_directory_path() / ("pslam_slam_eval_cli_degenerate_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  pslam::writeTumTrajectory(d / "gt.txt", spiral(30, 1.0));
+  pslam::writeTumTrajectory(d / "est.txt", spiral(30, 0.5));
+  auto stat = spiral(30, 1.0);
+  for (auto& p : stat) p.position = Eigen::Vector3d(1.0, 2.0, 3.0);
+  pslam::writeTumTrajectory(d / "static.txt", stat);
+  auto equal = spiral(30, 0.5);
+  for (auto& p : equal) p.timestamp = 10.5;
+  pslam::writeTumTrajectory(d / "equal.txt", equal);
+  struct Case {
+    std::string args, expected;
+  };
+  const std::vector<Case> cases = {
+      {(d / "static.txt").string() + " " + (d / "est.txt").string(),
+       (d / "static.txt").string() + ": all 30 poses are at one position (1 2 3): a static ground truth"},
+      {(d / "static.txt").string() + " " + (d / "est.txt").string() + " --align se3",
+       (d / "static.txt").string() + ": all 30 poses are at one position (1 2 3): a static ground truth"},
+      {(d / "gt.txt").string() + " " + (d / "static.txt").string(),
+       (d / "static.txt").string() + ": all 30 poses are at one position (1 2 3): a static estimate"},
+      {(d / "gt.txt").string() + " " + (d / "equal.txt").string(),
+       (d / "equal.txt").string() + ": all 30 poses have the timestamp 10.500000"},
+      {(d / "equal.txt").string() + " " + (d / "est.txt").string(),
+       (d / "equal.txt").string() + ": all 30 poses have the timestamp 10.500000"},
+  };
+  for (const Case& c : cases) {
+    const CliRun r = runCli(c.args);
+    EXPECT_EQ(r.exitCode, 1) << c.args << "\n" << r.output;
+    EXPECT_EQ(r.output.rfind("slam-eval: error: " + c.expected, 0), 0u) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  // Without an alignment a static ground truth is a reference like any other (the estimate's own spread).
+  EXPECT_EQ(runCli((d / "static.txt").string() + " " + (d / "est.txt").string() + " --align none").exitCode, 0);
+  fs::remove_all(d);
+}

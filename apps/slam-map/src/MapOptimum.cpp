@@ -169,6 +169,12 @@ MapOptimum mapOptimum(const OptimumOptions& options) {
   const map::Map m = map::loadMap(options.map);
   const Trajectory gt = eval::readTrajectory(options.groundTruth);
   require(!gt.empty(), "slam-map optimum", options.groundTruth.string() + " holds no pose");
+  // A static ground truth cannot be aligned to: refused before any bundle adjustment runs (and prints).
+  const bool moves = std::any_of(gt.begin(), gt.end(), [&](const StampedPose& p) {
+    return (p.position - gt.front().position).norm() > 1e-9 * std::max(1.0, gt.front().position.norm());
+  });
+  require(gt.size() < 2 || moves, options.groundTruth.string(),
+          "all " + std::to_string(gt.size()) + " poses are at one position: a static ground truth cannot be aligned");
   MapOptimum out = mapOptimum(m, gt, options);
   out.file = options.map;
   out.groundTruth = options.groundTruth;

@@ -333,3 +333,21 @@ TEST(SlamMapApp, OptimumNamesWhatIsMissing) {
   o.groundTruth = tmp.path / "gt.txt";
   EXPECT_LT(apps::mapOptimum(o).stages[3].cost, 1e-4);
 }
+
+// Reliability (doc/reliability.md): a static ground truth (every pose at one position) printed 34 lines of solver
+// output before its error; it is refused before any bundle adjustment, naming the file.
+TEST(SlamMapApp, OptimumRefusesAStaticGroundTruthFirst) {
+  TempDir tmp;
+  const map::Map m = curvedMap();
+  Trajectory gt = groundTruthOf(m, 1.0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
+  for (auto& p : gt) p.position = Eigen::Vector3d(1, 2, 3);
+  apps::OptimumOptions o;
+  o.segments = 0;
+  o.map = tmp.path / "m.slammap";
+  map::saveMap(m, o.map);
+  o.groundTruth = tmp.path / "static.txt";
+  writeTumTrajectory(o.groundTruth, gt);
+  EXPECT_NE(errorOf([&] { apps::mapOptimum(o); })
+                .find(o.groundTruth.string() + ": all " + std::to_string(gt.size()) + " poses are at one position"),
+            std::string::npos);
+}

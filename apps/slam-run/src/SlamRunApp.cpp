@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <limits>
 #include <optional>
@@ -86,6 +87,8 @@ nlohmann::json SlamRunSummary::toJson() const {
           {"first_localized_frame", firstLocalizedFrame},
           {"frames_late", framesLate},
           {"max_lateness_seconds", maxLatenessSeconds},
+          {"realtime_waits_cut", waitsCut},
+          {"warnings", warnings},
           {"wall_seconds", wallSeconds},
           {"cpu_seconds", cpuSeconds},
           {"frames_wall_seconds", framesWallSeconds},
@@ -199,7 +202,8 @@ SlamRunSummary SlamRunApp::run() {
     // The map's camera must be the rawlog's (the map stores undistorted intrinsics; the run keeps the rawlog's
     // distortion model). Checked on the rawlog's first frame, and the System made with that camera, before the
     // frames are read ahead (no MRPT deserialization runs next to the reading thread).
-    datasets::RawlogReader firstReader(options_.rawlog);
+    datasets::RawlogReader firstReader(options_.rawlog, {},
+                                       options_.sortStamps ? datasets::StampOrder::sort : datasets::StampOrder::strict);
     datasets::Frame first;
     require(firstReader.next(first), options_.rawlog.string(), "rawlog has no CAMERA frame");
     const geometry::PinholeCamera cam = cameraOfFrame(first, options_.rawlog);
@@ -215,7 +219,10 @@ SlamRunSummary SlamRunApp::run() {
   }
   // Frames are read and decoded a few ahead, in a thread of their own, while the current one is tracked; only the
   // channels the System uses are decoded (slam-eval reads DEPTH itself for the depth ratio).
-  datasets::PrefetchingRawlogReader reader(options_.rawlog, 3, system::System::channelsUsed(params));
+  datasets::PrefetchingRawlogReader reader(options_.rawlog, 3, system::System::channelsUsed(params),
+                                           options_.sortStamps ? datasets::StampOrder::sort
+                                                               : datasets::StampOrder::strict);
+  sum.warnings = reader.warnings();
 
   const std::size_t lastAsked =
       options_.last < 0 ? std::numeric_limits<std::size_t>::max() : static_cast<std::size_t>(options_.last);
@@ -226,7 +233,7 @@ SlamRunSummary SlamRunApp::run() {
 
   datasets::Frame input;
   std::optional<std::chrono::steady_clock::time_point> realtimeStart;  // --realtime: wall time of the first frame
-  double firstTimestamp = 0.0;
+  double firstTimestamp = 0.0, previousStamp = 0.0;
   std::vector<bool> localized;            // per processed frame: has a pose in the map
   std::vector<std::size_t> localizedIndex;  // its rawlog index
   const auto framesWall0 = std::chrono::steady_clock::now();
@@ -241,10 +248,26 @@ SlamRunSummary SlamRunApp::run() {
       const auto now = std::chrono::steady_clock::now();
       if (!realtimeStart) {
         realtimeStart = now;
-        firstTimestamp = input.timestamp;
+        firstTimestamp = previousStamp = input.timestamp;
       }
-      const auto due = *realtimeStart + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                            std::chrono::duration<double>(input.timestamp - firstTimestamp));
+      auto due = *realtimeStart + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(input.timestamp - firstTimestamp));
+      const auto longest = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(options_.realtimeMaxWait));
+      if (due - now > longest) {
+        // A gap in the stamps longer than any wait we make (a clock jump, a pause in the recording): wait the bound,
+        // then go on from there, so that the frames after it keep their pace.
+        if (sum.waitsCut++ == 0) {
+          char buf[200];
+          std::snprintf(buf, sizeof buf, "frame %zu: its stamp is %.3f s after the previous frame's; --realtime waited "
+                        "%.3f s (--realtime-max-wait) and went on from there", input.index,
+                        input.timestamp - previousStamp, options_.realtimeMaxWait);
+          sum.warnings.push_back(options_.rawlog.string() + ": " + buf);
+        }
+        *realtimeStart -= (due - now) - longest;
+        due = now + longest;
+      }
+      previousStamp = input.timestamp;
       if (now < due) {
         std::this_thread::sleep_until(due);
       } else if (now > due) {

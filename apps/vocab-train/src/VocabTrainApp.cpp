@@ -6,7 +6,9 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "pslam/core/AtomicFile.h"
 #include "pslam/core/Error.h"
+#include "pslam/core/GzipStream.h"
 #include "pslam/core/Params.h"
 #include "pslam/core/Progress.h"
 #include "pslam/datasets/Rawlog.h"
@@ -56,6 +58,21 @@ std::string VocabTrainResult::toText() const {
 
 VocabTrainResult trainVocabulary(const VocabTrainOptions& options) {
   options.check();
+  // The output is prepared before any work, against every input: a rawlog (with its images), each image of the
+  // folders, the config (`--out` onto any of them replaced it with a vocabulary).
+  std::vector<fs::path> inputs;
+  for (const auto& rawlog : options.rawlogs) {
+    for (const auto& p : datasets::RawlogWriter::inputFilesOf(rawlog)) inputs.push_back(p);
+    // The files inside its images folder too: an output there would replace one of the rawlog's images.
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(datasets::RawlogWriter::imagesDirFor(rawlog), ec))
+      inputs.push_back(e.path());
+  }
+  for (const auto& folder : options.imageFolders)
+    for (const auto& p : imagesIn(folder)) inputs.push_back(p);
+  inputs.push_back(options.config);
+  OutputSet outputs(inputs);
+  AtomicOutput& out = outputs.add(options.out);
   features::OrbParams orb;
   if (!options.config.empty())
     params::loadConfigFile(options.config.string(), {},
@@ -96,6 +113,14 @@ VocabTrainResult trainVocabulary(const VocabTrainOptions& options) {
     progress.finish();
   }
   r.images = descriptors.size();
+  if (r.descriptors == 0) {
+    std::string names;
+    for (const auto& x : options.rawlogs) names += (names.empty() ? "" : ", ") + x.string();
+    for (const auto& x : options.imageFolders) names += (names.empty() ? "" : ", ") + x.string();
+    throw Error("no ORB descriptors in " + names + " (" + std::to_string(r.images) +
+                " images, every " + std::to_string(options.every) + "): nothing to train " + options.out.string() +
+                " on (blank or very small images?)");
+  }
   r.extractSeconds = secondsSince(t0);
   const auto t1 = std::chrono::steady_clock::now();
   Progress progress("clustering levels", static_cast<std::size_t>(options.vocabulary.depth), options.progress);
@@ -115,10 +140,17 @@ VocabTrainResult trainVocabulary(const VocabTrainOptions& options) {
     description = s.str();
   }
   v.setProvenance({v.provenance().images, v.provenance().descriptors, description});
-  v.save(options.out);
+  try {
+    v.save(out.tempPath());
+    // MRPT's gzip writer ignores a failure when it closes the file (the last block on a full disk): read it back.
+    verifyGzipFile(out.tempPath());
+  } catch (const std::exception& e) {  // e.g. a full disk: MRPT's "Cannot write bytes to stream!" names no file
+    throw Error(options.out.string() + ": cannot write the vocabulary (" + oneLineMessage(e) + ")");
+  }
+  r.fileBytes = fs::file_size(out.tempPath());
+  outputs.commit();
   r.words = v.numWords();
   r.nodes = v.numNodes();
-  r.fileBytes = fs::file_size(options.out);
   return r;
 }
 

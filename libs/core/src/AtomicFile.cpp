@@ -28,6 +28,29 @@ std::string uniqueSuffix() {
   return ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
 }
 
+/// Removes the temporaries of `finalPath` (`<name>.tmp-<pid>-<n>`) left by processes that no longer exist (ended by
+/// SIGKILL, a crash or a power cut, with no chance to clean up): the next output to the same place removes them.
+/// A temporary of a live process (another run writing there now) is left alone.
+void removeStaleTemporariesOf(const fs::path& finalPath) {
+  const std::string prefix = finalPath.filename().string() + ".tmp-";
+  const fs::path parent = finalPath.has_parent_path() ? finalPath.parent_path() : fs::path(".");
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(parent, ec)) {
+    const std::string n = e.path().filename().string();
+    if (n.size() <= prefix.size() || n.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rest = n.substr(prefix.size());  // "<pid>-<n>"
+    const auto dash = rest.find('-');
+    if (dash == 0 || dash == std::string::npos || dash > 9 ||
+        rest.find_first_not_of("0123456789-") != std::string::npos || rest.find('-', dash + 1) != std::string::npos ||
+        dash + 1 == rest.size())
+      continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(rest.substr(0, dash)));
+    if (pid <= 0 || pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;
+    std::error_code rm;
+    fs::remove_all(e.path(), rm);
+  }
+}
+
 // ------------------------------------------------------------------ registry of live temporaries
 // Fixed storage, so that the signal handler reads only memory that is never freed or reallocated. A slot is
 // claimed (1), filled, then published (2); the handler only looks at published slots.
@@ -192,6 +215,7 @@ AtomicOutput::AtomicOutput(fs::path finalPath, OutputKind kind) : final_(std::mo
   installOutputCleanupOnSignals();
   requireReplaceable(final_, kind_);
   ensureParentDirectory(final_);
+  removeStaleTemporariesOf(final_);
   temp_ = final_;
   temp_ += uniqueSuffix();
   registrySlot_ = registerTemporary(temp_, kind_.isFolder());

@@ -119,12 +119,65 @@ uint64_t GzipInputStream::getPosition() const { return position_; }
 
 std::string GzipInputStream::getStreamDescription() const { return "GzipInputStream: " + path_.string(); }
 
-void verifyGzipFile(const fs::path& path) {
-  GzipInputStream in(path);
-  if (!in.compressed()) return;
-  std::vector<char> buffer(256 * 1024);
-  while (in.Read(buffer.data(), buffer.size()) == buffer.size()) {
+std::uint64_t verifyGzipFile(const fs::path& path) {
+  {
+    GzipInputStream probe(path);  // a missing file, or an uncompressed one (read as it is)
+    if (!probe.compressed()) return probe.getTotalBytesCount();
   }
+  // One pass of inflate over the members: it finds what gzread finds (corrupt deflate data, a CRC-32 or length
+  // mismatch, a file that ends inside a member) and also where the last member ends. gzread ignores bytes after
+  // it that do not start another member; they are no part of the data (a file appended to, or the end of
+  // another file), so they are an error too.
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw Error(path.string() + ": cannot open (" + std::strerror(errno) + ")");
+  std::error_code ec;
+  const std::uint64_t size = fs::file_size(path, ec);
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 16) != Z_OK) throw Error(path.string() + ": cannot start zlib's inflate");
+  std::vector<unsigned char> in(128 * 1024), out(256 * 1024);
+  std::uint64_t consumed = 0, total = 0;
+  bool memberEnded = false, inputEnded = false;
+  std::string failure;
+  for (;;) {
+    if (zs.avail_in == 0 && !inputEnded) {
+      file.read(reinterpret_cast<char*>(in.data()), static_cast<std::streamsize>(in.size()));
+      const auto got = static_cast<uInt>(file.gcount());
+      inputEnded = got == 0;
+      zs.next_in = in.data();
+      zs.avail_in = got;
+    }
+    if (inputEnded && memberEnded) break;
+    if (memberEnded) {
+      // Another member must start here (gzip magic 1f 8b), or nothing at all.
+      if (zs.next_in[0] != 0x1f || (zs.avail_in > 1 && zs.next_in[1] != 0x8b)) {
+        failure = std::to_string(size - consumed) + " bytes after the end of the gzip data (at byte " +
+                  std::to_string(consumed) + ": the file was appended to, or holds another file's end)";
+        break;
+      }
+      inflateReset(&zs);
+      memberEnded = false;
+    }
+    const uInt before = zs.avail_in;
+    zs.next_out = out.data();
+    zs.avail_out = static_cast<uInt>(out.size());
+    const int rc = inflate(&zs, Z_NO_FLUSH);
+    consumed += before - zs.avail_in;
+    total += out.size() - zs.avail_out;
+    if (rc == Z_STREAM_END) {
+      memberEnded = true;
+    } else if (rc == Z_BUF_ERROR && inputEnded) {  // no progress without more input: the file ends inside
+      failure = "truncated: the gzip data ends at byte " + std::to_string(size) + " before the end of its stream";
+      break;
+    } else if (rc != Z_OK && rc != Z_BUF_ERROR) {
+      failure = "corrupt gzip data (zlib: " + std::string(zs.msg ? zs.msg : "error " + std::to_string(rc)) +
+                ", found at compressed byte " + std::to_string(consumed) + ")";
+      break;
+    }
+  }
+  inflateEnd(&zs);
+  if (file.bad()) failure = std::string("read error (") + std::strerror(errno) + ")";
+  if (!failure.empty()) throw Error(path.string() + ": " + failure);
+  return total;
 }
 
 struct GzipOutputStream::Impl {
@@ -220,6 +273,12 @@ void throwArchiveReadError(const std::filesystem::path& path, const std::excepti
   else if (const auto at2 = what.find("has class '"); at2 != std::string::npos)
     cls = what.substr(at2 + 11, what.find('\'', at2 + 11) - at2 - 11);
   if (!cls.empty()) throw Error(path.string() + ": not a " + fileKind + " (it holds a " + cls + ")");
+  // MRPT could not even read an object header: the data is something else (text, another format), not a damaged
+  // archive of ours (whose header it would read).
+  if (what.find("parsing typed object ''") != std::string::npos ||
+      what.find("old streaming header") != std::string::npos ||
+      what.find("Class name has more than") != std::string::npos)
+    throw Error(path.string() + ": not a " + fileKind + " (its data is not an MRPT archive)");
   if (const auto* err = dynamic_cast<const Error*>(&e)) throw *err;
   throw Error(path.string() + ": not a readable " + fileKind + " (truncated or corrupt: " + oneLineMessage(e) + ")");
 }

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <mrpt/config/CConfigFileMemory.h>
+#include <optional>
 
 namespace pslam::params {
 
@@ -356,14 +357,71 @@ void requireKnownSections(const mrpt::config::CConfigFileBase& cfg, const std::v
 }
 
 // ------------------------------------------------------------------------------------------ files, overrides
-std::string readConfigText(const std::string& path) {
+namespace {
+/// The file named by the `include = <file>` line before the first section (checkIniSyntax allows no other key
+/// there), and the text without that line.
+std::optional<std::string> takeInclude(std::string& text) {
+  std::size_t begin = 0;
+  while (begin < text.size()) {
+    std::size_t end = text.find('\n', begin);
+    if (end == std::string::npos) end = text.size();
+    const std::string line = valueText(text.substr(begin, end - begin));
+    if (!line.empty() && line[0] == '[') return std::nullopt;  // sections have started
+    const auto eq = line.find('=');
+    if (eq != std::string::npos && lower(trim(line.substr(0, eq))) == "include") {
+      const std::string file = trim(line.substr(eq + 1));
+      text.erase(begin, std::min(end + 1, text.size()) - begin);
+      return file;
+    }
+    begin = end + 1;
+  }
+  return std::nullopt;
+}
+
+/// readConfigText with the chain of files that include this one (cycles are errors).
+std::string readConfigTextIncluding(const std::string& path, std::vector<std::filesystem::path>& chain) {
   require(std::filesystem::is_regular_file(path), path, "config file not found");
   std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
+  std::stringstream stream;
+  stream << in.rdbuf();
   require(static_cast<bool>(in) || in.eof(), path, "cannot read config file");
-  checkIniSyntax(text.str(), path);
-  return text.str();
+  std::string text = stream.str();
+  checkIniSyntax(text, path);
+  const std::optional<std::string> include = takeInclude(text);
+  if (!include) return text;
+  // The base file first, relative to this one; this file's keys replace the base's, key by key.
+  require(!include->empty(), path, "include: no file named");
+  std::filesystem::path base = *include;
+  if (base.is_relative()) base = std::filesystem::path(path).parent_path() / base;
+  const std::filesystem::path self = std::filesystem::weakly_canonical(path);
+  chain.push_back(self);
+  const std::filesystem::path baseCanonical = std::filesystem::weakly_canonical(base);
+  for (const auto& f : chain)
+    if (f == baseCanonical) throw Error(path + ": include = " + *include + ": the files include each other");
+  std::string baseText;
+  try {
+    baseText = readConfigTextIncluding(base.string(), chain);
+  } catch (const Error& e) {
+    throw Error(path + ": include = " + *include + ": " + e.what());
+  }
+  chain.pop_back();
+  mrpt::config::CConfigFileMemory merged(baseText), own(text);
+  std::vector<std::string> sections;
+  own.getAllSections(sections);
+  for (const std::string& section : sections) {
+    std::vector<std::string> keys;
+    own.getAllKeys(section, keys);
+    for (const std::string& key : keys) merged.write(section, key, own.read_string(section, key, ""));
+  }
+  std::string out;
+  merged.getContent(out);
+  return out;
+}
+}  // namespace
+
+std::string readConfigText(const std::string& path) {
+  std::vector<std::filesystem::path> chain;
+  return readConfigTextIncluding(path, chain);
 }
 
 void checkIniSyntax(const std::string& text, const std::string& source) {
@@ -374,7 +432,7 @@ void checkIniSyntax(const std::string& text, const std::string& source) {
   std::map<std::string, Seen> sections;                        // by lower-case name
   std::map<std::string, std::map<std::string, Seen>> keys;     // section -> lower-case key -> first line
   std::string section;
-  bool inSection = false;
+  bool inSection = false, includeSeen = false;
   std::size_t lineNo = 0, begin = 0;
   while (begin <= text.size()) {
     std::size_t end = text.find('\n', begin);
@@ -405,6 +463,10 @@ void checkIniSyntax(const std::string& text, const std::string& source) {
       throw Error(at + "'" + line + "': expected key = value" + (inSection ? " in [" + section + "]" : ""));
     const std::string key = trim(line.substr(0, eq));
     if (key.empty()) throw Error(at + "'" + line + "': empty key" + (inSection ? " in [" + section + "]" : ""));
+    if (!inSection && lower(key) == "include" && !includeSeen) {  // `include = <file>` (readConfigText)
+      includeSeen = true;
+      continue;
+    }
     if (!inSection)
       throw Error(at + key + ": key outside any section (the file needs a [Section] header before it)");
     const std::string value = line.substr(eq + 1);

@@ -1,8 +1,10 @@
 #include "pslam/core/Trajectory.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -74,12 +76,20 @@ Trajectory readTumTrajectory(const std::filesystem::path& path, StampOrder order
       if (c == ',') c = ' ';
     std::istringstream ss(line);
     double v[8];
-    for (double& x : v) {
-      if (!(ss >> x))
+    static const char* const kColumns[8] = {"timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"};
+    for (int k = 0; k < 8; ++k) {
+      std::string token;
+      if (!(ss >> token))
         throw Error(path.string() + ":" + std::to_string(lineNo) +
-                    ": malformed TUM line (expected 'timestamp tx ty tz qx qy qz qw')");
-      if (!std::isfinite(x))
-        throw Error(path.string() + ":" + std::to_string(lineNo) + ": NaN or Inf value");
+                    ": malformed TUM line (expected 'timestamp tx ty tz qx qy qz qw'; " + kColumns[k] + " is missing)");
+      // strtod rather than >>: it tells a value that is no number from one out of range or not finite.
+      errno = 0;
+      char* end = nullptr;
+      v[k] = std::strtod(token.c_str(), &end);
+      const std::string at = path.string() + ":" + std::to_string(lineNo) + ": " + kColumns[k] + " = '" + token + "'";
+      if (end != token.c_str() + token.size()) throw Error(at + ": not a number");
+      if (errno == ERANGE && std::isinf(v[k])) throw Error(at + ": out of the range of a double");
+      if (!std::isfinite(v[k])) throw Error(at + ": not a finite number");
     }
     std::string extra;
     if (ss >> extra)

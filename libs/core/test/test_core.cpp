@@ -67,6 +67,27 @@ TEST(Trajectory, MalformedLineNamesFileAndLine) {
   EXPECT_THROW(readTumTrajectory(d / "missing.txt"), Error);
 }
 
+// Reliability (doc/reliability.md): NaN, inf and 1e999 were a "malformed TUM line"; the message says which value.
+TEST(Trajectory, NonFiniteValuesAreNamed) {
+  const fs::path d = tempDir("nonfinite");
+  struct Case {
+    std::string line, expected;
+  };
+  for (const Case& c : {Case{"1.0 nan 0 0 0 0 0 1", "bad.txt:1: tx = 'nan': not a finite number"},
+                        Case{"1.0 0 0 inf 0 0 0 1", "bad.txt:1: tz = 'inf': not a finite number"},
+                        Case{"1.0 0 0 0 0 0 0 1e999", "bad.txt:1: qw = '1e999': out of the range of a double"},
+                        Case{"1e999 0 0 0 0 0 0 1", "bad.txt:1: timestamp = '1e999': out of the range of a double"},
+                        Case{"1.0 0 0 0x 0 0 0 1", "bad.txt:1: tz = '0x': not a number"}}) {
+    std::ofstream(d / "bad.txt") << c.line << "\n";
+    try {
+      readTumTrajectory(d / "bad.txt");
+      ADD_FAILURE() << c.line;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Trajectory, NearestPoseWithinTheWindowAgainstBruteForce) {
   Trajectory gt;
   for (double t : {1.00, 1.01, 1.03, 1.06, 1.10}) gt.emplace_back(t, Eigen::Isometry3d::Identity());

@@ -255,6 +255,41 @@ TEST(GzipInputStream, VerifiesTheStreamToItsEnd) {
             std::string::npos);
 }
 
+// Reliability (doc/reliability.md): verifyGzipFile finds what reading finds (a CRC-32 or length mismatch, a cut
+// file), gives the length of the data, and refuses bytes after the last gzip member (which zlib's reader ignores:
+// a file appended to was accepted). Several members are one stream.
+TEST(GzipInputStream, VerificationRefusesBytesAfterTheStream) {
+  const fs::path d = tempDir("gzip_verify");
+  std::string payload;
+  for (int i = 0; i < 30000; ++i) payload += std::to_string(i * 7919 % 10007) + ",";
+  {
+    mrpt::io::CFileGZOutputStream out((d / "ok.gz").string());
+    out.Write(payload.data(), payload.size());
+  }
+  const std::string gz = readAll(d / "ok.gz");
+  EXPECT_EQ(verifyGzipFile(d / "ok.gz"), payload.size());
+  std::ofstream(d / "two.gz", std::ios::binary) << gz + gz;
+  EXPECT_EQ(verifyGzipFile(d / "two.gz"), 2 * payload.size());
+  std::ofstream(d / "plain.txt", std::ios::binary) << "plain text";
+  EXPECT_EQ(verifyGzipFile(d / "plain.txt"), 10u);
+  std::ofstream(d / "appended.gz", std::ios::binary) << gz + "appended text";
+  EXPECT_NE(errorOf([&] { verifyGzipFile(d / "appended.gz"); })
+                .find("appended.gz: 13 bytes after the end of the gzip data (at byte " + std::to_string(gz.size())),
+            std::string::npos);
+  std::ofstream(d / "zeros.gz", std::ios::binary) << gz + std::string(512, '\0');
+  EXPECT_NE(errorOf([&] { verifyGzipFile(d / "zeros.gz"); }).find("512 bytes after the end of the gzip data"),
+            std::string::npos);
+  std::string crc = gz;
+  crc[crc.size() - 6] = static_cast<char>(crc[crc.size() - 6] ^ 0x10);
+  std::ofstream(d / "crc.gz", std::ios::binary) << crc;
+  EXPECT_NE(errorOf([&] { verifyGzipFile(d / "crc.gz"); })
+                .find("crc.gz: corrupt gzip data (zlib: incorrect data check, found at compressed byte"),
+            std::string::npos);
+  std::ofstream(d / "cut.gz", std::ios::binary) << gz.substr(0, gz.size() / 2);
+  EXPECT_NE(errorOf([&] { verifyGzipFile(d / "cut.gz"); }).find("cut.gz: truncated: the gzip data ends at byte"),
+            std::string::npos);
+}
+
 TEST(GzipOutputStream, BlocksReadAsOneStreamAndTheBytesDependOnTheDataOnly) {
   const fs::path d = tempDir("gzip_write");
   std::string payload;  // compressible text and bytes that hardly compress, as a map's descriptors
@@ -328,4 +363,32 @@ TEST(Error, OneLineMessageOfAnMrptReport) {
   EXPECT_EQ(oneLineMessage(mrpt), "Value 'fx' not found in section 'CAMERA'");
   EXPECT_EQ(oneLineMessage(std::string("\nfirst line\nsecond")), "first line");
   EXPECT_EQ(oneLineMessage(Error("x.txt: bad")), "x.txt: bad");
+}
+
+// Reliability (doc/reliability.md): after kill -9 of a tool, its temporaries stayed forever; the next output to the
+// same place removes those of processes that no longer exist, and only those.
+TEST(AtomicOutput, StaleTemporariesOfDeadProcessesAreRemoved) {
+  const fs::path d = tempDir("stale");
+  const pid_t dead = ::fork();
+  if (dead == 0) ::_exit(0);
+  int st = 0;
+  ::waitpid(dead, &st, 0);
+  const std::string deadSuffix = ".tmp-" + std::to_string(dead) + "-0";
+  std::ofstream(d / ("trajectory.txt" + deadSuffix)) << "partial";
+  fs::create_directories(d / ("frames" + deadSuffix));
+  std::ofstream(d / ("frames" + deadSuffix) / "frame_010.png") << "x";
+  const std::string liveSuffix = ".tmp-" + std::to_string(::getppid()) + "-0";  // our parent: alive
+  std::ofstream(d / ("trajectory.txt" + liveSuffix)) << "another run's";
+  std::ofstream(d / "trajectory.txt.tmp-notes") << "not a temporary of ours";
+  {
+    AtomicOutput out(d / "trajectory.txt");
+    std::ofstream(out.tempPath()) << "new";
+    out.commit();
+  }
+  EXPECT_FALSE(fs::exists(d / ("trajectory.txt" + deadSuffix)));
+  EXPECT_TRUE(fs::exists(d / ("trajectory.txt" + liveSuffix)));
+  EXPECT_TRUE(fs::exists(d / "trajectory.txt.tmp-notes"));
+  EXPECT_TRUE(fs::exists(d / ("frames" + deadSuffix)));  // another output's: removed by the next one of its own
+  { AtomicOutput frames(d / "frames", kFrames); }
+  EXPECT_FALSE(fs::exists(d / ("frames" + deadSuffix)));
 }

@@ -374,6 +374,40 @@ TEST(Params, ReadConfigTextNamesAMissingFile) {
   std::filesystem::remove(path);
 }
 
+TEST(Params, AnIncludedFileIsReadFirstAndTheIncludingOneReplacesItsKeys) {
+  // config/slam/structure_network.ini: "include = structure.ini" and only what differs.
+  const auto dir = std::filesystem::temp_directory_path() / "pslam_test_params_include";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "sub");
+  std::ofstream(dir / "base.ini") << "[Demo]\ncount = 8\nsigma = 1.5\nname = base\n";
+  std::ofstream(dir / "sub" / "derived.ini") << "# only what differs\ninclude = ../base.ini\n[Demo]\ncount = 9\n";
+  demo::Demo d;
+  params::loadConfigFile((dir / "sub" / "derived.ini").string(), {"Demo"},
+                         [&](const mrpt::config::CConfigFileBase& cfg) { d.loadFromConfigFile(cfg, "Demo"); });
+  EXPECT_EQ(d.count, 9);           // the including file's value
+  EXPECT_EQ(d.sigma, 1.5);         // the base's, kept
+  EXPECT_EQ(d.flat.name, "base");  // a key only the base has
+  auto errorOf = [&](const std::string& file) {
+    try {
+      params::readConfigText((dir / file).string());
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // A missing base, a cycle and a second include are named with the file that includes.
+  std::ofstream(dir / "missing.ini") << "include = nothere.ini\n[Demo]\n";
+  EXPECT_NE(errorOf("missing.ini").find("missing.ini: include = nothere.ini: "), std::string::npos) << errorOf("missing.ini");
+  EXPECT_NE(errorOf("missing.ini").find("config file not found"), std::string::npos);
+  std::ofstream(dir / "a.ini") << "include = b.ini\n[Demo]\n";
+  std::ofstream(dir / "b.ini") << "include = a.ini\n[Demo]\n";
+  EXPECT_NE(errorOf("a.ini").find("the files include each other"), std::string::npos) << errorOf("a.ini");
+  std::ofstream(dir / "twice.ini") << "include = base.ini\ninclude = base.ini\n[Demo]\n";
+  EXPECT_NE(errorOf("twice.ini").find("twice.ini:2: include: key outside any section"), std::string::npos)
+      << errorOf("twice.ini");
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Params, ClosestPrefersAKeyTheWordBegins) {
   EXPECT_EQ(params::closest("distortion", {"resolution", "fx", "distortion_model"}), "distortion_model");
   EXPECT_EQ(params::closest("noise", {"name", "noise_sigma", "noise_sigma_extra"}), "noise_sigma");

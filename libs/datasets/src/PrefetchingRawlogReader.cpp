@@ -7,8 +7,8 @@
 namespace pslam::datasets {
 
 PrefetchingRawlogReader::PrefetchingRawlogReader(std::filesystem::path rawlogPath, std::size_t capacity,
-                                                 RawlogChannels channels)
-    : reader_(std::move(rawlogPath), channels), capacity_(capacity) {
+                                                 RawlogChannels channels, StampOrder order)
+    : reader_(std::move(rawlogPath), channels, order), capacity_(capacity) {
   if (capacity_ == 0) throw Error(reader_.path().string() + ": a prefetching reader needs a capacity of at least 1");
   thread_ = std::thread([this] { readLoop(); });
 }

@@ -1,8 +1,11 @@
 #include "pslam/datasets/Rawlog.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <deque>
 #include <optional>
 #include <vector>
 
@@ -14,6 +17,7 @@
 #include <mrpt/system/datetime.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "ArchivePeek.h"
 #include "pslam/core/Error.h"
 #include "pslam/core/GzipStream.h"
 
@@ -150,8 +154,19 @@ void RawlogWriter::write(const Frame& f) {
     // PNG level 1: lossless like any level, several times faster to write than OpenCV's default 3 for a
     // few percent more disk (the writer is on the critical path of conversion and generation).
     static const std::vector<int> kPngParams{cv::IMWRITE_PNG_COMPRESSION, 1};
-    if (!cv::imwrite(file.string(), m, d.ext == "png" ? kPngParams : std::vector<int>{}))
-      throw Error(ctx + ": cannot write image " + file.string());
+    errno = 0;
+    bool written = false;
+    std::string why;
+    try {
+      written = cv::imwrite(file.string(), m, d.ext == "png" ? kPngParams : std::vector<int>{});
+    } catch (const cv::Exception& e) {
+      why = oneLineMessage(e);
+    }
+    if (!written) {
+      // OpenCV says only "false": the reason (a full disk, a file-size limit) is in errno.
+      if (why.empty()) why = errno ? std::strerror(errno) : "the encoder failed";
+      throw Error(ctx + ": cannot write image " + file.string() + " (" + why + ")");
+    }
     auto obs = mrpt::obs::CObservationImage::Create();
     obs->sensorLabel = label;
     obs->timestamp = stamp;
@@ -202,27 +217,38 @@ namespace {
 /// stream ended verified. Everything else is an error naming the file, the object and the frame.
 class ObjectStream {
  public:
-  explicit ObjectStream(const fs::path& path) : path_(path), stream_(path) {}
+  ObjectStream(const fs::path& path, std::uint64_t totalBytes)
+      : path_(path), stream_(path), peek_(stream_, totalBytes) {}
 
   /// The next object, or nullptr at the end. `framesBefore` (CAMERA observations read before it) is only for
   /// the message.
   mrpt::serialization::CSerializable::Ptr next(std::size_t framesBefore) {
     if (end_) return nullptr;
-    const std::uint64_t before = stream_.getPosition();
+    const std::uint64_t before = peek_.getPosition();
+    std::string refused;
     try {
-      auto arch = mrpt::serialization::archiveFrom(stream_);
+      // Sizes MRPT would trust are checked first (ArchivePeek.h): a corrupt one must not reach its allocation.
+      refused = detail::checkNextObject(peek_);
+    } catch (const std::exception&) {
+      // A read error of the gzip stream while looking ahead: reported below from stream_.failure().
+    }
+    if (!refused.empty())
+      throw Error(path_.string() + ": corrupt rawlog at object " + std::to_string(objects_) + " (after " +
+                  std::to_string(framesBefore) + " frames): " + refused);
+    try {
+      auto arch = mrpt::serialization::archiveFrom(peek_);
       auto obj = arch.ReadObject();
       if (!obj) throw Error("a null object");  // MRPT's "nullptr" record: never written to a rawlog
       ++objects_;
       return obj;
     } catch (const std::exception& e) {
-      if (stream_.failure().empty() && stream_.atEnd() && stream_.getPosition() == before) {
+      if (stream_.failure().empty() && stream_.atEnd() && peek_.getPosition() == before) {
         end_ = true;
         return nullptr;
       }
       const std::string mrpt = oneLineMessage(e);
       std::string why = !stream_.failure().empty() ? stream_.failure()
-                        : stream_.getPosition() == before ? mrpt
+                        : peek_.getPosition() == before ? mrpt
                                                           : "object cut short or malformed (" + mrpt + ")";
       if (const auto at = mrpt.find("has class '"); stream_.failure().empty() && at != std::string::npos)
         why = "an object of the unknown class '" + mrpt.substr(at + 11, mrpt.find('\'', at + 11) - at - 11) +
@@ -236,6 +262,7 @@ class ObjectStream {
  private:
   fs::path path_;
   GzipInputStream stream_;
+  detail::PeekStream peek_;
   std::size_t objects_ = 0;
   bool end_ = false;
 };
@@ -245,17 +272,25 @@ std::unique_ptr<ObjectStream> openRawlog(const fs::path& path) {
   if (!fs::is_regular_file(path, ec)) throw Error(path.string() + ": rawlog file not found");
   // The whole gzip stream is verified before any object is decoded: data that a corrupt stream delivers before
   // its CRC-32 is checked (garbage sizes and counts) never reaches MRPT's deserialization.
+  std::uint64_t bytes = 0;
   try {
-    verifyGzipFile(path);
+    bytes = verifyGzipFile(path);
   } catch (const Error& e) {
     const std::string prefix = path.string() + ": ";
     const std::string what = e.what();
     throw Error(prefix + "corrupt rawlog: " + (what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what));
   }
-  return std::make_unique<ObjectStream>(path);
+  return std::make_unique<ObjectStream>(path, bytes);
 }
 
 }  // namespace
+
+/// The observations of one frame: its CAMERA and the channels that share its stamp.
+struct FrameObjects {
+  mrpt::obs::CObservationImage::Ptr camera;
+  std::vector<mrpt::obs::CObservation::Ptr> channels;
+  double stamp() const { return mrpt::Clock::toDouble(camera->timestamp); }
+};
 
 struct RawlogReader::Impl {
   fs::path path;
@@ -265,6 +300,10 @@ struct RawlogReader::Impl {
   std::size_t frameIndex = 0;
   std::optional<cv::Size> size;
   RawlogChannels channels;
+  StampOrder order = StampOrder::strict;
+  std::optional<double> lastStamp;
+  std::deque<FrameObjects> sorted;  // StampOrder::sort: every frame, read at the start
+  std::vector<std::string> warnings;
 
   /// `framesBefore`: CAMERA observations read so far (for messages).
   mrpt::serialization::CSerializable::Ptr readObject(std::size_t framesBefore) {
@@ -272,19 +311,49 @@ struct RawlogReader::Impl {
     return objects->next(framesBefore);
   }
   std::size_t objectIndex() const { return objects->objectsRead(); }
+  bool readFrameObjects(FrameObjects& fo, std::size_t frame);
 };
 
-RawlogReader::RawlogReader(fs::path rawlogPath, RawlogChannels channels) : impl_(std::make_unique<Impl>()) {
+RawlogReader::RawlogReader(fs::path rawlogPath, RawlogChannels channels, StampOrder order)
+    : impl_(std::make_unique<Impl>()) {
   auto& d = *impl_;
   d.path = std::move(rawlogPath);
   d.channels = channels;
+  d.order = order;
   d.objects = openRawlog(d.path);
   d.imagesDir = RawlogWriter::imagesDirFor(d.path);
+  if (order == StampOrder::sort) {
+    // The frames' observations (images stay in their files until next()) are read first and sorted by stamp.
+    FrameObjects fo;
+    std::size_t back = 0, same = 0;
+    std::optional<double> last;
+    try {
+      while (d.readFrameObjects(fo, d.sorted.size())) {
+        if (last && fo.stamp() < *last) ++back;
+        if (last && fo.stamp() == *last) ++same;
+        last = fo.stamp();
+        d.sorted.push_back(std::move(fo));
+      }
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw Error(frameContext(d.path, d.sorted.size()) + ": " + oneLineMessage(e));
+    }
+    if (back > 0)
+      d.warnings.push_back(d.path.string() + ": " + std::to_string(back) +
+                           " frame(s) stamped before the frame before them; the frames are read in stamp order");
+    if (same > 0)
+      d.warnings.push_back(d.path.string() + ": " + std::to_string(same) +
+                           " frame(s) with the stamp of the frame before them; kept in the rawlog's order");
+    std::stable_sort(d.sorted.begin(), d.sorted.end(),
+                     [](const FrameObjects& a, const FrameObjects& b) { return a.stamp() < b.stamp(); });
+  }
 }
 
 RawlogReader::~RawlogReader() = default;
 
 const fs::path& RawlogReader::path() const { return impl_->path; }
+const std::vector<std::string>& RawlogReader::warnings() const { return impl_->warnings; }
 const fs::path& RawlogReader::imagesDir() const { return impl_->imagesDir; }
 
 namespace {
@@ -312,46 +381,77 @@ bool RawlogReader::next(Frame& f) {
   }
 }
 
-bool RawlogReader::readFrame(Frame& f) {
-  auto& d = *impl_;
-  mrpt::obs::CObservationImage::Ptr cam;
+bool RawlogReader::Impl::readFrameObjects(FrameObjects& fo, std::size_t frame) {
+  fo = FrameObjects{};
   // Skip objects that are not observations of the contract until a CAMERA appears.
-  while (!cam) {
-    auto obj = d.readObject(d.frameIndex);
+  while (!fo.camera) {
+    auto obj = readObject(frame);
     if (!obj) return false;
     auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
     if (!obs) {
-      throw Error(d.path.string() + ": object " + std::to_string(d.objectIndex() - 1) + " is a " +
+      throw Error(path.string() + ": object " + std::to_string(objectIndex() - 1) + " is a " +
                   obj->GetRuntimeClass()->className +
                   ", not an observation (only observation-only rawlogs are supported)");
     }
     if (obs->sensorLabel == kCameraLabel) {
-      cam = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
-      if (!cam) throw Error(frameContext(d.path, d.frameIndex) + ": CAMERA observation is not a CObservationImage");
+      fo.camera = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs);
+      if (!fo.camera) throw Error(frameContext(path, frame) + ": CAMERA observation is not a CObservationImage");
     } else if (obs->sensorLabel == kDepthLabel || obs->sensorLabel == kSemanticLabel ||
                obs->sensorLabel == kNormalsLabel) {
-      throw Error(frameContext(d.path, d.frameIndex) + ": " + obs->sensorLabel +
+      throw Error(frameContext(path, frame) + ": " + obs->sensorLabel +
                   " observation without a preceding CAMERA observation of the same timestamp");
     }
   }
+  const double stamp = fo.stamp();
+  // The channels that share the CAMERA timestamp.
+  for (;;) {
+    auto obj = readObject(frame + 1);
+    if (!obj) break;
+    auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
+    if (!obs || obs->sensorLabel == kCameraLabel ||
+        std::abs(mrpt::Clock::toDouble(obs->timestamp) - stamp) > kSameFrameTolerance) {
+      pending = obj;
+      break;
+    }
+    fo.channels.push_back(obs);
+  }
+  return true;
+}
+
+bool RawlogReader::readFrame(Frame& f) {
+  auto& d = *impl_;
+  FrameObjects fo;
+  if (d.order == StampOrder::sort) {
+    if (d.sorted.empty()) return false;
+    fo = std::move(d.sorted.front());
+    d.sorted.pop_front();
+  } else {
+    if (!d.readFrameObjects(fo, d.frameIndex)) return false;
+  }
+  const auto& cam = fo.camera;
   const std::string ctx = frameContext(d.path, d.frameIndex);
   f = Frame{};
   f.index = d.frameIndex;
   f.timestamp = mrpt::Clock::toDouble(cam->timestamp);
+  // Frames must follow each other in time: a stamp going back or repeated would be sorted (or paired) silently
+  // by everything downstream (trajectories, evaluation). StampOrder::sort reads them in stamp order instead.
+  if (d.order == StampOrder::strict && d.lastStamp && std::isfinite(f.timestamp)) {
+    char buf[160];
+    if (f.timestamp < *d.lastStamp) {
+      std::snprintf(buf, sizeof buf, "timestamp %.6f is before the previous frame's %.6f", f.timestamp, *d.lastStamp);
+      throw Error(ctx + ": " + buf + " (frames must be in time order; slam-run --sort-stamps reads them sorted)");
+    }
+    if (f.timestamp == *d.lastStamp) {
+      std::snprintf(buf, sizeof buf, "timestamp %.6f is the previous frame's", f.timestamp);
+      throw Error(ctx + ": " + buf + " (two frames at one time; slam-run --sort-stamps reads them anyway)");
+    }
+  }
+  d.lastStamp = f.timestamp;
   f.camera = cam->cameraParams;
   f.sensorPoseOnBody = cam->cameraPose;
   f.image = loadImage(cam->image, d.imagesDir, ctx + " CAMERA");
 
-  // Attach the channels that share the CAMERA timestamp.
-  for (;;) {
-    auto obj = d.readObject(d.frameIndex + 1);
-    if (!obj) break;
-    auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj);
-    if (!obs || obs->sensorLabel == kCameraLabel ||
-        std::abs(mrpt::Clock::toDouble(obs->timestamp) - f.timestamp) > kSameFrameTolerance) {
-      d.pending = obj;
-      break;
-    }
+  for (const auto& obs : fo.channels) {
     if (obs->sensorLabel == kDepthLabel) {
       auto depth = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(obs);
       if (!depth || !depth->hasRangeImage) throw Error(ctx + ": DEPTH observation has no range image");

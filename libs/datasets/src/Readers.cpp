@@ -205,9 +205,12 @@ std::vector<fs::path> filesWithSuffix(const fs::path& dir, const std::string& su
 DatasetFormat detectFormat(const fs::path& root) {
   requireFolder(root);
   std::error_code ec;
-  if (fs::is_regular_file(root / "rgb.txt", ec)) return DatasetFormat::Tum;
-  if (fs::is_regular_file(root / "associations.txt", ec) && !filesWithSuffix(root, ".gt.freiburg").empty())
+  // ICL-NUIM's TUM-compatible release names its poses <name>.gt.freiburg (frame ids, not times), beside an
+  // associations.txt or, without depth, an rgb.txt: that file decides between ICL-NUIM and TUM RGB-D.
+  const bool iclPoses = !filesWithSuffix(root, ".gt.freiburg").empty();
+  if (iclPoses && (fs::is_regular_file(root / "associations.txt", ec) || fs::is_regular_file(root / "rgb.txt", ec)))
     return DatasetFormat::IclNuim;
+  if (fs::is_regular_file(root / "rgb.txt", ec)) return DatasetFormat::Tum;
   if (fs::is_directory(root / "image_0", ec) || fs::is_directory(root / "image_2", ec)) return DatasetFormat::Kitti;
   if (fs::is_regular_file(root / "mav0" / "cam0" / "data.csv", ec) || fs::is_regular_file(root / "cam0" / "data.csv", ec))
     return DatasetFormat::Euroc;
@@ -290,26 +293,35 @@ DatasetIndex indexIclNuim(const fs::path& root, const IclOptions& opt) {
   idx.root = root;
   idx.depthUnits = kTumDepthUnits;
 
-  const fs::path assocFile = root / "associations.txt";
+  // The frame list: associations.txt ("id depth/id.png id rgb/id.png", or rgb first as associate.py writes it), or,
+  // for a folder without depth, rgb.txt ("id rgb/id.png").
+  const bool withAssociations = fs::exists(root / "associations.txt");
+  const fs::path assocFile = root / (withAssociations || !fs::exists(root / "rgb.txt") ? "associations.txt" : "rgb.txt");
   struct Row {
     long long id;
     fs::path rgb, depth;
   };
   std::vector<Row> rows;
   for (const TextRow& row : readTextTable(assocFile, false)) {
-    requireFields(row, 4, assocFile, "'id depth/<id>.png id rgb/<id>.png'");
-    // The release writes "id depth/id.png id rgb/id.png"; accept the associate.py order (rgb first) too.
-    const bool depthFirst = row.fields[1].find("depth") != std::string::npos;
-    const std::string& rgbField = depthFirst ? row.fields[3] : row.fields[1];
-    const std::string& depthField = depthFirst ? row.fields[1] : row.fields[3];
-    const std::string& idField = depthFirst ? row.fields[2] : row.fields[0];
+    std::string idField, rgbField, depthField;
+    if (withAssociations) {
+      requireFields(row, 4, assocFile, "'id depth/<id>.png id rgb/<id>.png'");
+      const bool depthFirst = row.fields[1].find("depth") != std::string::npos;
+      rgbField = depthFirst ? row.fields[3] : row.fields[1];
+      depthField = depthFirst ? row.fields[1] : row.fields[3];
+      idField = depthFirst ? row.fields[2] : row.fields[0];
+    } else {
+      requireFields(row, 2, assocFile, "'id rgb/<id>.png'");
+      idField = row.fields[0];
+      rgbField = row.fields[1];
+    }
     const double idValue = parseNumber(idField, assocFile, row.line, "frame id");
     if (idValue < 0 || idValue != std::floor(idValue))
       throw Error(where(assocFile, row.line) + ": frame id '" + idField + "' is not a non-negative integer");
     const long long id = static_cast<long long>(idValue);
     if (!rows.empty() && id <= rows.back().id)
       throw Error(where(assocFile, row.line) + ": frame id " + idField + " is not after the previous one");
-    rows.push_back({id, root / rgbField, root / depthField});
+    rows.push_back({id, root / rgbField, depthField.empty() ? fs::path() : root / depthField});
   }
   if (rows.empty()) throw Error(assocFile.string() + ": empty dataset (no frame listed)");
 
@@ -329,16 +341,22 @@ DatasetIndex indexIclNuim(const fs::path& root, const IclOptions& opt) {
     if (opt.useDepth) e.depth = r.depth;
     idx.frames.push_back(std::move(e));
   }
+  if (!withAssociations) idx.assumptions.push_back("frames from " + assocFile.filename().string() + ": no depth images");
 
+  // The poses: --poses, else the release's single <name>.gt.freiburg, else a groundtruth.txt of frame ids (a TUM
+  // file whose first column is the id, as some copies of the release name it).
   fs::path gtFile = opt.posesFile;
   if (gtFile.empty()) {
     const auto candidates = filesWithSuffix(root, ".gt.freiburg");
     if (candidates.size() > 1)
       throw Error(root.string() + ": several *.gt.freiburg files; pass --poses to choose one");
-    if (!candidates.empty()) gtFile = candidates.front();
+    if (!candidates.empty())
+      gtFile = candidates.front();
+    else if (fs::is_regular_file(root / "groundtruth.txt"))
+      gtFile = root / "groundtruth.txt";
   }
   if (gtFile.empty()) {
-    idx.assumptions.push_back("no *.gt.freiburg: no ground truth");
+    idx.assumptions.push_back("no *.gt.freiburg or groundtruth.txt: no ground truth");
   } else {
     // The first column of <name>.gt.freiburg is the frame id of associations.txt; match ids exactly.
     const Trajectory gt = readTumTrajectory(gtFile);
@@ -368,8 +386,10 @@ DatasetIndex indexIclNuim(const fs::path& root, const IclOptions& opt) {
     if (missing > 0)
       idx.assumptions.push_back(std::to_string(missing) + " frame id(s) without a pose in " +
                                 gtFile.filename().string() + " get no ground truth");
-    idx.assumptions.push_back(opt.reflectPoses ? "poses reflected about the XZ plane (S T S, S = diag(1,-1,1))"
-                                               : "poses kept as published (y-up renderer frame)");
+    idx.assumptions.push_back("poses from " + gtFile.filename().string() + ", matched by frame id");
+    idx.assumptions.push_back(opt.reflectPoses ? "ICL-NUIM pose convention: poses reflected about the XZ plane (S T S, "
+                                                 "S = diag(1,-1,1)) for the top-down images; --icl-raw-poses keeps them"
+                                               : "poses kept as published (y-up renderer frame, --icl-raw-poses)");
   }
   if (!opt.useDepth) idx.assumptions.push_back("depth not converted (--no-depth)");
   requireFilesExist(idx);

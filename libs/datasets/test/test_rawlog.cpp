@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -8,6 +11,8 @@
 
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/obs/CObservationImage.h>
+#include <mrpt/serialization/CArchive.h>
 
 #include "pslam/core/Error.h"
 #include "pslam/datasets/PrefetchingRawlogReader.h"
@@ -391,4 +396,188 @@ TEST(Rawlog, ChannelsLeftOutAreNotDecoded) {
   PrefetchingRawlogReader prefetching(d / "seq.rawlog", 2, none);
   for (int i = 0; i < 3; ++i) EXPECT_TRUE(prefetching.next(b));
   EXPECT_FALSE(prefetching.next(b));
+}
+
+namespace {
+std::string gunzipToString(const fs::path& p) {
+  mrpt::io::CFileGZInputStream in(p.string());
+  std::string raw;
+  char buf[4096];
+  std::size_t n = 0;
+  while ((n = in.Read(buf, sizeof buf)) > 0) raw.append(buf, n);
+  return raw;
+}
+void gzipString(const std::string& raw, const fs::path& p) {
+  mrpt::io::CFileGZOutputStream out(p.string());
+  out.Write(raw.data(), raw.size());
+}
+void putU32(std::string& s, std::size_t at, std::uint32_t v) {
+  for (int k = 0; k < 4; ++k) s[at + k] = static_cast<char>((v >> (8 * k)) & 0xff);
+}
+/// Offset of the range image's rows field of the first DEPTH observation in the archive `raw` of a rawlog whose
+/// frames are W x H: the first "<H><W>" (uint32, little endian) after the class name.
+std::size_t rangeImageSizeOffset(const std::string& raw, std::uint32_t H, std::uint32_t W) {
+  const std::size_t cls = raw.find("CObservation3DRangeScan");
+  if (cls == std::string::npos) return std::string::npos;
+  std::string pattern(8, '\0');
+  putU32(pattern, 0, H);
+  putU32(pattern, 4, W);
+  return raw.find(pattern, cls);
+}
+}  // namespace
+
+// Reliability: a DEPTH observation whose declared range-image size is corrupt inside a valid gzip stream (what
+// crashed every rawlog reader inside MRPT's CObservation3DRangeScan::rangeImage_setSize, repro
+// rawlog_depth_size_segfault) is refused before MRPT allocates it: one line naming the file and the frame.
+TEST(Rawlog, CorruptRangeImageSizeIsRefusedBeforeMrptAllocatesIt) {
+  const fs::path d = tempDir("depth_size");
+  {
+    RawlogWriter w(d / "seq.rawlog");
+    for (int i = 0; i < 3; ++i) w.write(makeFrame(i, false, true));
+    w.commit();
+  }
+  const std::string raw = gunzipToString(d / "seq.rawlog");
+  const std::size_t at = rangeImageSizeOffset(raw, 48, 64);
+  ASSERT_NE(at, std::string::npos);
+  struct SizeCase {
+    const char* name;
+    std::uint32_t rows, cols;
+  };
+  // The repro's bytes (0xFE over both fields), sizes that overflow int, and one that fits int but not the file.
+  for (const SizeCase& c : {SizeCase{"fe", 0xFEFEFEFEu, 0xFEFEFEFEu}, SizeCase{"rows_negative", 0x80000000u, 64},
+                            SizeCase{"product_overflows", 65536, 65536}, SizeCase{"more_than_the_file", 4000, 4000}}) {
+    SCOPED_TRACE(c.name);
+    std::string bad = raw;
+    putU32(bad, at, c.rows);
+    putU32(bad, at + 4, c.cols);
+    const fs::path file = d / (std::string(c.name) + ".rawlog");
+    gzipString(bad, file);
+    fs::copy(d / "seq_Images", d / (std::string(c.name) + "_Images"), fs::copy_options::recursive);
+    for (const std::string& msg : {readAllFramesError(file), countFramesError(file)}) {
+      EXPECT_EQ(msg.rfind(file.string() + ": corrupt rawlog at object 1 (after 1 frames): ", 0), 0u) << msg;
+      EXPECT_NE(msg.find("DEPTH observation declares a " + std::to_string(c.rows) + "x" + std::to_string(c.cols) +
+                         " range image"),
+                std::string::npos)
+          << msg;
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+    }
+  }
+  // The same size fields, written back, read as before: the check refuses only what cannot be.
+  EXPECT_EQ(readAllFramesError(d / "seq.rawlog"), "");
+}
+
+// The repro file itself (read only, so copied first), when ../shared is there.
+TEST(Rawlog, ReproDepthSizeSegfaultIsOneErrorLine) {
+  const fs::path repro = fs::path(PRIORSLAM_SHARED_DATA_DIR).parent_path() / "repro" / "rawlog_depth_size_segfault";
+  if (!fs::exists(repro / "min.rawlog")) GTEST_SKIP() << repro << " is absent (the shared folder is not here)";
+  const fs::path d = tempDir("repro");
+  fs::copy(repro / "min.rawlog", d / "min.rawlog");
+  fs::copy(repro / "min_Images", d / "min_Images", fs::copy_options::recursive);
+  const std::string msg = readAllFramesError(d / "min.rawlog");
+  EXPECT_EQ(msg.rfind((d / "min.rawlog").string() + ": corrupt rawlog at object 1 (after 1 frames): ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("DEPTH observation declares a"), std::string::npos) << msg;
+}
+
+// Reliability: frame time stamps must increase. A stamp going back and the same stamp twice (all stamps equal,
+// all zero) are errors naming the file and the frame: slam-run would otherwise sort its trajectory by stamp and
+// score it wrong. A first stamp of 0 is a time (KITTI's times.txt starts there).
+TEST(Rawlog, StampsMustIncrease) {
+  const fs::path d = tempDir("stamps");
+  struct StampCase {
+    const char* name;
+    std::vector<double> stamps;
+    std::string expected;
+  };
+  const std::vector<StampCase> cases{
+      {"back", {10.0, 10.1, 10.05}, "frame 2: timestamp 10.050000 is before the previous frame's 10.100000"},
+      {"same", {10.0, 10.1, 10.1}, "frame 2: timestamp 10.100000 is the previous frame's"},
+      {"all_zero", {0.0, 0.0, 0.0}, "frame 1: timestamp 0.000000 is the previous frame's"}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    const fs::path file = d / (std::string(c.name) + ".rawlog");
+    {
+      RawlogWriter w(file);
+      for (std::size_t i = 0; i < c.stamps.size(); ++i) {
+        Frame f = makeFrame(static_cast<int>(i), false, false);
+        f.timestamp = c.stamps[i];
+        w.write(f);
+      }
+      w.commit();
+    }
+    const std::string msg = readAllFramesError(file);
+    EXPECT_EQ(msg.rfind(file.string() + ": " + c.expected, 0), 0u) << msg;
+    // Sorting instead is an option: then every frame reads, in stamp order.
+    RawlogReader r(file, RawlogChannels{}, StampOrder::sort);
+    Frame f;
+    double last = -1e300;
+    std::size_t n = 0;
+    {
+      while (r.next(f)) {
+        EXPECT_GE(f.timestamp, last);
+        last = f.timestamp;
+        ++n;
+      }
+      EXPECT_EQ(n, c.stamps.size());
+      EXPECT_FALSE(r.warnings().empty());
+    }
+  }
+}
+
+// Reliability: on a full disk the writers (slam-synth, normal-priors, dataset2rawlog) said "cannot write image"
+// without the reason. A file-size limit stands in for the full disk (EFBIG instead of ENOSPC).
+TEST(Rawlog, ImageThatCannotBeWrittenSaysWhy) {
+  const fs::path d = tempDir("full_disk");
+  struct rlimit old {};
+  ::getrlimit(RLIMIT_FSIZE, &old);
+  const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+  std::string msg;
+  {
+    RawlogWriter w(d / "seq.rawlog");
+    struct rlimit tiny = old;
+    tiny.rlim_cur = 512;
+    ::setrlimit(RLIMIT_FSIZE, &tiny);
+    try {
+      w.write(makeFrame(0, true, false));
+    } catch (const Error& e) {
+      msg = e.what();
+    }
+    ::setrlimit(RLIMIT_FSIZE, &old);
+  }
+  std::signal(SIGXFSZ, oldHandler);
+  EXPECT_NE(msg.find("cannot write image"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("(File too large)"), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(d / "seq.rawlog"));
+}
+
+// Reliability: an image stored inside the rawlog (MRPT writes them too) whose declared size is corrupt made OpenCV
+// try to allocate it (an abort under AddressSanitizer, found by the rawlog fuzz test at 2000 cases); it is refused
+// before MRPT reads it. The same image with its sizes intact reads.
+TEST(Rawlog, CorruptEmbeddedImageSizeIsRefusedBeforeItIsAllocated) {
+  const fs::path d = tempDir("embedded");
+  auto write = [&](const fs::path& file) {
+    mrpt::io::CFileGZOutputStream out(file.string());
+    auto arch = mrpt::serialization::archiveFrom(out);
+    auto obs = mrpt::obs::CObservationImage::Create();
+    obs->sensorLabel = kCameraLabel;
+    obs->timestamp = mrpt::Clock::fromDouble(5.0);
+    obs->image = mrpt::img::CImage(cv::Mat(48, 64, CV_8UC1, cv::Scalar(7)), mrpt::img::DEEP_COPY);
+    obs->cameraParams.ncols = 64;
+    obs->cameraParams.nrows = 48;
+    obs->cameraParams.setIntrinsicParamsFromValues(50, 50, 32, 24);
+    arch << *obs;
+  };
+  write(d / "ok.rawlog");
+  EXPECT_EQ(readAllFramesError(d / "ok.rawlog"), "");
+  std::string raw = gunzipToString(d / "ok.rawlog");
+  std::string size(8, '\0');
+  putU32(size, 0, 64);
+  putU32(size, 4, 48);
+  const std::size_t at = raw.find(size, raw.find("CImage"));
+  ASSERT_NE(at, std::string::npos);
+  putU32(raw, at, 0x7FFFFFFF);
+  putU32(raw, at + 4, 0x7FFFFFFF);
+  gzipString(raw, d / "huge.rawlog");
+  const std::string msg = readAllFramesError(d / "huge.rawlog");
+  EXPECT_EQ(msg.rfind((d / "huge.rawlog").string() + ": corrupt rawlog at object 0 (after 0 frames): ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("a CObservationImage declares a 2147483647x2147483647 grey image"), std::string::npos) << msg;
 }

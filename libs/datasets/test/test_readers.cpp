@@ -276,6 +276,8 @@ TEST(Format, DetectsEachLayoutAndRefusesUnknown) {
   writeText(base / "tum" / "rgb.txt", "");
   writeText(base / "icl" / "associations.txt", "");
   writeText(base / "icl" / "lr0.gt.freiburg", "");
+  writeText(base / "icl_rgb_only" / "rgb.txt", "");  // ICL-NUIM without depth: rgb.txt beside the .gt.freiburg
+  writeText(base / "icl_rgb_only" / "livingRoom3n.gt.freiburg", "");
   fs::create_directories(base / "kitti" / "image_0");
   writeText(base / "euroc" / "mav0" / "cam0" / "data.csv", "");
   writeImage(base / "folder" / "a.png", patternImage(8, 8, 0));
@@ -283,6 +285,7 @@ TEST(Format, DetectsEachLayoutAndRefusesUnknown) {
   writeText(base / "nothing" / "readme.txt", "hi");
   EXPECT_EQ(detectFormat(base / "tum"), DatasetFormat::Tum);
   EXPECT_EQ(detectFormat(base / "icl"), DatasetFormat::IclNuim);
+  EXPECT_EQ(detectFormat(base / "icl_rgb_only"), DatasetFormat::IclNuim);
   EXPECT_EQ(detectFormat(base / "kitti"), DatasetFormat::Kitti);
   EXPECT_EQ(detectFormat(base / "euroc"), DatasetFormat::Euroc);
   EXPECT_EQ(detectFormat(base / "folder"), DatasetFormat::ImageFolder);
@@ -332,6 +335,49 @@ TEST(IclReader, MatchesIdsAndReflectsPosesToAProperTopDownCamera) {
 
   writeText(root / "associations.txt", "0 depth/0.png 0\n");
   expectError([&] { indexIclNuim(root, opt); }, {"associations.txt:1", "malformed line"});
+}
+
+TEST(IclReader, AFolderWithoutDepthReadsRgbTxtAndAGroundTruthOfFrameIds) {
+  // As the shared lr-kt3 subset: rgb.txt ("id rgb/id.png"), no depth, the poses in groundtruth.txt (TUM lines of
+  // frame ids) and/or the release's <name>.gt.freiburg, which wins.
+  const fs::path root = freshDir("icl_rgb");
+  std::string rgb = "# id file\n", gt, other;
+  for (int id = 0; id < 3; ++id) {
+    writeImage(root / "rgb" / (std::to_string(id) + ".png"), patternImage(64, 48, id));
+    rgb += std::to_string(id) + " rgb/" + std::to_string(id) + ".png\n";
+    if (id >= 1) gt += std::to_string(id) + tumLine(0, motion(id)).substr(8);
+    other += std::to_string(id) + tumLine(0, motion(id + 5)).substr(8);
+  }
+  writeText(root / "rgb.txt", rgb);
+  writeText(root / "groundtruth.txt", gt);
+  IclOptions opt;
+  opt.override.camera = makePinholeCamera(64, 48, 48.12, 48.0, 31.5, 23.5);
+  opt.override.source = "test";
+  DatasetIndex idx = indexIclNuim(root, opt);
+  ASSERT_EQ(idx.frames.size(), 3u);
+  EXPECT_TRUE(idx.frames[1].depth.empty());
+  EXPECT_FALSE(idx.frames[0].T_world_cam.has_value());
+  Eigen::Matrix3d S = Eigen::Vector3d(1, -1, 1).asDiagonal();
+  ASSERT_TRUE(idx.frames[2].T_world_cam.has_value());
+  EXPECT_LT((idx.frames[2].T_world_cam->translation() - S * motion(2).translation()).norm(), 1e-7);
+  // The converter says which convention it applied.
+  const std::string said = [&] {
+    std::string all;
+    for (const std::string& a : idx.assumptions) all += a + "\n";
+    return all;
+  }();
+  EXPECT_NE(said.find("reflected about the XZ plane"), std::string::npos) << said;
+  EXPECT_NE(said.find("groundtruth.txt"), std::string::npos) << said;
+  EXPECT_NE(said.find("no depth"), std::string::npos) << said;
+  // The release's .gt.freiburg is preferred to a groundtruth.txt.
+  writeText(root / "traj.gt.freiburg", other);
+  idx = indexIclNuim(root, opt);
+  ASSERT_TRUE(idx.frames[0].T_world_cam.has_value());
+  EXPECT_LT((idx.frames[0].T_world_cam->translation() - S * motion(5).translation()).norm(), 1e-7);
+  EXPECT_EQ(detectFormat(root), DatasetFormat::IclNuim);
+  // A malformed rgb.txt line is named.
+  writeText(root / "rgb.txt", "0\n");
+  expectError([&] { indexIclNuim(root, opt); }, {"rgb.txt:1", "malformed line"});
 }
 
 // ------------------------------------------------------------------------------------------------ KITTI

@@ -82,6 +82,11 @@ Alignment alignTrajectories(const Trajectory& gt, const Trajectory& est, Alignme
   if (!(sv(0) > 0.0) || sv(1) <= 1e-9 * sv(0))
     throw Error("alignment: the estimated positions are coincident or collinear, " + toString(mode) +
                 " alignment is undetermined");
+  // Ground-truth positions that coincide make the Sim(3) scale 0 (every estimate collapses onto them: ATE 0).
+  const Eigen::Matrix3Xd gtCentered = dst.colwise() - dst.rowwise().mean();
+  if (!(gtCentered.colwise().norm().maxCoeff() > 1e-9 * std::max(1.0, dst.colwise().norm().maxCoeff())))
+    throw Error("alignment: the ground-truth positions of the associated poses coincide, " + toString(mode) +
+                " alignment is degenerate (a static ground truth)");
   const Eigen::Matrix4d T = Eigen::umeyama(src, dst, mode == AlignmentMode::Sim3);
   a.scale = mode == AlignmentMode::Sim3 ? std::cbrt(T.block<3, 3>(0, 0).determinant()) : 1.0;
   a.rotation = T.block<3, 3>(0, 0) / a.scale;

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <mutex>
 #include <utility>
 
@@ -40,11 +41,43 @@ constexpr std::uint32_t kEndSentinel = 0x534C4D45;  // "SLME"
 // A map file's compression level: level 6 made KITTI 00's map 3 % smaller and took 1.5x the time of level 1.
 constexpr int kMapGzipLevel = 1;
 
-std::uint64_t readCount(CArchive& in, const char* what, std::uint64_t max = kMaxCount) {
+// Ids are given one by one: a next id past this is no map's (and 2^64-1 would wrap when the map is extended).
+constexpr std::uint64_t kMaxNextId = std::uint64_t(1) << 48;
+
+/// The decompressed bytes of the file being loaded and the stream reading them (set by loadMap for its thread), so
+/// that a count can be checked against the bytes left before anything is allocated or read for it.
+struct ReadBudget {
+  const mrpt::io::CStream* stream = nullptr;
+  std::uint64_t total = 0;
+  std::uint64_t left() const { return total > stream->getPosition() ? total - stream->getPosition() : 0; }
+};
+thread_local const ReadBudget* t_readBudget = nullptr;
+
+/// A count of items of at least `bytesPerItem` bytes each: refused when implausible (above `max`) or when the items
+/// cannot be in the bytes left of the file (a crafted count would otherwise be read item by item, for seconds and
+/// gigabytes, until the data ran out).
+std::uint64_t readCount(CArchive& in, const char* what, std::uint64_t max = kMaxCount, std::uint64_t bytesPerItem = 1) {
   std::uint64_t n = 0;
   in >> n;
   if (n > max) throw Error(std::string("implausible ") + what + " count " + std::to_string(n));
+  if (t_readBudget && n * bytesPerItem > t_readBudget->left())
+    throw Error(std::string("declares ") + std::to_string(n) + " " + what + "s (" + std::to_string(n * bytesPerItem) +
+                " bytes at least), more than the " + std::to_string(t_readBudget->left()) + " bytes left in the file");
   return n;
+}
+
+/// An MRPT string (u32 length, then the bytes), its length checked before the string is allocated: MRPT's own
+/// operator>> resizes to whatever length it reads (up to 4 GiB, zero-filled) before it reads a byte.
+std::string readString(CArchive& in, const char* what, std::uint64_t max) {
+  std::uint32_t n = 0;
+  in >> n;
+  if (n > max) throw Error(std::string(what) + " of " + std::to_string(n) + " bytes");
+  if (t_readBudget && n > t_readBudget->left())
+    throw Error(std::string(what) + " of " + std::to_string(n) + " bytes, more than the " +
+                std::to_string(t_readBudget->left()) + " bytes left in the file");
+  std::string s(n, '\0');
+  if (n > 0 && in.ReadBuffer(s.data(), n) != n) throw Error(std::string(what) + " cut short");
+  return s;
 }
 
 std::size_t cappedReserve(std::uint64_t n) { return static_cast<std::size_t>(std::min<std::uint64_t>(n, 1u << 16)); }
@@ -59,7 +92,7 @@ void writeDoubles(CArchive& out, const std::vector<double>& v) {
 }
 
 std::vector<double> readDoubles(CArchive& in, const char* what, std::uint64_t max, const std::string& context) {
-  const std::uint64_t n = readCount(in, what, max);
+  const std::uint64_t n = readCount(in, what, max, 8);
   std::vector<double> v;
   v.reserve(cappedReserve(n));
   for (std::uint64_t i = 0; i < n; ++i) {
@@ -149,7 +182,7 @@ KeyFrame readKeyFrame(CArchive& in) {
   kf.camera.check(ctx);
   // Containers grow element by element (reserve is capped): a corrupt count fails at the end of the data
   // instead of allocating gigabytes first.
-  const std::uint64_t nKeypoints = readCount(in, "keypoint");
+  const std::uint64_t nKeypoints = readCount(in, "keypoint", kMaxCount, 28);
   kf.keypoints.reserve(cappedReserve(nKeypoints));
   for (std::uint64_t i = 0; i < nKeypoints; ++i) {
     cv::KeyPoint k;
@@ -171,20 +204,20 @@ KeyFrame readKeyFrame(CArchive& in) {
   kf.descriptors = readMat(in, static_cast<std::int64_t>(nKeypoints), ctx);
   kf.scaleFactors = readDoubles(in, "scale factor", kMaxPyramidLevels, ctx);
   kf.levelSigma2 = readDoubles(in, "level sigma2", kMaxPyramidLevels, ctx);
-  const std::uint64_t nSemantic = readCount(in, "semantic", nKeypoints);
+  const std::uint64_t nSemantic = readCount(in, "semantic", nKeypoints, 12);
   kf.semanticProbabilities.reserve(cappedReserve(nSemantic));
   for (std::uint64_t i = 0; i < nSemantic; ++i) {
     std::array<float, 3> s{};
     in >> s[0] >> s[1] >> s[2];
     kf.semanticProbabilities.push_back(s);
   }
-  const std::uint64_t nIds = readCount(in, "map point id", nKeypoints);
+  const std::uint64_t nIds = readCount(in, "map point id", nKeypoints, 8);
   kf.mapPointIds.reserve(cappedReserve(nIds));
   for (std::uint64_t i = 0; i < nIds; ++i) {
     in >> u;
     kf.mapPointIds.push_back(u);
   }
-  const std::uint64_t nShared = readCount(in, "covisibility");
+  const std::uint64_t nShared = readCount(in, "covisibility", kMaxCount, 12);
   for (std::uint64_t i = 0; i < nShared; ++i) {
     std::int32_t weight = 0;
     in >> u >> weight;
@@ -193,7 +226,7 @@ KeyFrame readKeyFrame(CArchive& in) {
   }
   in >> u;
   kf.parent = u;
-  const std::uint64_t nChildren = readCount(in, "children");
+  const std::uint64_t nChildren = readCount(in, "children", kMaxCount, 8);
   for (std::uint64_t i = 0; i < nChildren; ++i) {
     in >> u;
     if (u == kf.id || !kf.children.insert(u).second) throw Error(ctx + ": invalid child " + std::to_string(u));
@@ -225,7 +258,7 @@ MapPoint readMapPoint(CArchive& in) {
   p.anchorKeypoint = anchorKp;
   p.bearing = readVec3(in);
   in >> p.inverseDepth;
-  const std::uint64_t nObs = readCount(in, "observation");
+  const std::uint64_t nObs = readCount(in, "observation", kMaxCount, 16);
   for (std::uint64_t i = 0; i < nObs; ++i) {
     std::uint64_t kf = 0, k = 0;
     in >> kf >> k;
@@ -281,9 +314,12 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
   Map m;
   std::uint64_t nextKf = 0, nextPt = 0;
   in >> nextKf >> nextPt;
+  if (nextKf > kMaxNextId || nextPt > kMaxNextId)
+    throw Error("next " + std::string(nextKf > kMaxNextId ? "keyframe" : "map point") + " id " +
+                std::to_string(std::max(nextKf, nextPt)) + " is implausible (ids are given one by one; at most 2^48)");
   MapSerializationAccess::nextKf(m) = nextKf;
   MapSerializationAccess::nextPt(m) = nextPt;
-  const std::uint64_t nKf = readCount(in, "keyframe");
+  const std::uint64_t nKf = readCount(in, "keyframe", kMaxCount, 200);
   for (std::uint64_t i = 0; i < nKf; ++i) {
     KeyFrame kf = readKeyFrame(in);
     const KeyFrameId id = kf.id;
@@ -292,7 +328,7 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
     if (!MapSerializationAccess::keyframes(m).emplace(id, std::move(kf)).second)
       throw Error("duplicate keyframe id " + std::to_string(id));
   }
-  const std::uint64_t nPt = readCount(in, "map point");
+  const std::uint64_t nPt = readCount(in, "map point", kMaxCount, 100);
   for (std::uint64_t i = 0; i < nPt; ++i) {
     MapPoint p = readMapPoint(in);
     const MapPointId id = p.id;
@@ -305,19 +341,14 @@ void CSlamMapArchive::readContent(mrpt::serialization::CArchive& in, uint8_t ver
       throw Error("duplicate map point id " + std::to_string(id));
   }
   if (version >= 1) {
-    std::string vocabulary;
-    in >> vocabulary;
-    if (vocabulary.size() > 4096)
-      throw Error("vocabulary fingerprint of " + std::to_string(vocabulary.size()) + " bytes");
-    m.setVocabulary(std::move(vocabulary));
+    m.setVocabulary(readString(in, "vocabulary fingerprint", 4096));
   }
   if (version >= 2) {
     const std::uint64_t nExtensions = readCount(in, "extension", kMaxExtensions);
     for (std::uint64_t i = 0; i < nExtensions; ++i) {
-      std::string name, bytes;
-      in >> name;
-      if (name.empty() || name.size() > 64) throw Error("extension name of " + std::to_string(name.size()) + " bytes");
-      in >> bytes;
+      const std::string name = readString(in, "extension name", 64);
+      if (name.empty()) throw Error("extension name of 0 bytes");
+      std::string bytes = readString(in, "extension", std::numeric_limits<std::uint32_t>::max());
       if (m.extension(name)) throw Error("duplicate extension '" + name + "'");
       m.setExtension(name, std::move(bytes));
     }
@@ -354,8 +385,13 @@ Map loadMap(const std::filesystem::path& path, std::uint8_t* formatVersion) {
   if (!std::filesystem::is_regular_file(path, ec)) throw Error(path.string() + ": map file not found");
   GzipInputStream stream(path);
   if (!stream.compressed()) throw Error(path.string() + ": not a .slammap file (not gzip-compressed)");
-  verifyGzipFile(path);  // before any field is decoded: a corrupt stream's data never reaches the reader
+  const ReadBudget budget{&stream, verifyGzipFile(path)};  // before any field is decoded: a corrupt stream's data
+                                                          // never reaches the reader
   CSlamMapArchive wrapper;
+  struct BudgetScope {
+    explicit BudgetScope(const ReadBudget* b) { t_readBudget = b; }
+    ~BudgetScope() { t_readBudget = nullptr; }
+  } scope(&budget);
   try {
     auto arch = mrpt::serialization::archiveFrom(stream);
     arch.ReadObject(&wrapper);

@@ -340,3 +340,75 @@ TEST(MapIO, ForeignArchiveSaysWhatItHolds) {
   const std::string msg = expectLoadError(file);
   EXPECT_NE(msg.find("not a .slammap file (it holds a mrpt::poses::CPose3D)"), std::string::npos) << msg;
 }
+
+namespace {
+void putU64(std::string& s, std::size_t at, std::uint64_t v) {
+  for (int k = 0; k < 8; ++k) s[at + k] = static_cast<char>((v >> (8 * k)) & 0xff);
+}
+std::uint64_t getU64(const std::string& s, std::size_t at) {
+  std::uint64_t v = 0;
+  for (int k = 0; k < 8; ++k) v |= std::uint64_t(std::uint8_t(s[at + k])) << (8 * k);
+  return v;
+}
+/// Offset of the map's first field (next keyframe id) in the archive of a saved map: after the class name and the
+/// version byte.
+std::size_t firstFieldOffset(const std::string& raw) {
+  const std::string cls = CSlamMapArchive::className;
+  return raw.find(cls) + cls.size() + 1;
+}
+}  // namespace
+
+// Reliability (doc/reliability.md): next-id counters of 2^64-1 loaded, and extending such a map failed in mid-run
+// blaming the rawlog. They are refused at load.
+TEST(MapIO, ImplausibleNextIdsAreRefusedAtLoad) {
+  const fs::path file = tempDir() / "ids.slammap";
+  saveMap(richMap(), file);
+  const std::string raw = decompress(file);
+  const std::size_t at = firstFieldOffset(raw);
+  for (const std::size_t field : {at, at + 8}) {
+    std::string bad = raw;
+    putU64(bad, field, ~std::uint64_t(0));
+    const fs::path p = tempDir() / ("ids_" + std::to_string(field - at) + ".slammap");
+    compress(bad, p);
+    const std::string msg = expectLoadError(p);
+    EXPECT_NE(msg.find(" id 18446744073709551615 is implausible"), std::string::npos) << msg;
+  }
+}
+
+// Reliability: a count the rest of the file cannot hold is refused before anything is allocated for it (a crafted
+// 3.2 MB map declaring 99 M keypoints took 3.7 GB and 21.6 s to be refused).
+TEST(MapIO, ImpossibleCountsAreRefusedBeforeAllocating) {
+  Map map = richMap();
+  const fs::path file = tempDir() / "counts.slammap";
+  saveMap(map, file);
+  const std::string raw = decompress(file);
+  // [nextKf][nextPt][keyframe count][id][timestamp][4x4 pose][fx fy cx cy][w h: int32] then the keypoint count.
+  const std::size_t at = firstFieldOffset(raw) + 8 * 3 + 8 + 8 + 16 * 8 + 4 * 8 + 2 * 4;
+  ASSERT_EQ(getU64(raw, at), map.keyFrames().begin()->second.keypoints.size());
+  std::string bad = raw;
+  putU64(bad, at, 99'000'000);
+  const fs::path p = tempDir() / "99M_keypoints.slammap";
+  compress(bad, p);
+  const std::string msg = expectLoadError(p);
+  EXPECT_NE(msg.find("declares 99000000 keypoints (2772000000 bytes at least), more than the "), std::string::npos)
+      << msg;
+}
+
+// Reliability: bytes after the end of the gzip stream (a file appended to) were accepted.
+TEST(MapIO, BytesAfterTheGzipStreamAreAnError) {
+  const fs::path file = tempDir() / "trailing.slammap";
+  saveMap(richMap(), file);
+  writeAll(file, readAll(file) + "garbage");
+  const std::string msg = expectLoadError(file);
+  EXPECT_NE(msg.find("7 bytes after the end of the gzip data"), std::string::npos) << msg;
+}
+
+// Reliability: a gzip-compressed text file given as a map gave MRPT's "Exception while parsing typed object"; it is
+// named as what it is not.
+TEST(MapIO, GzippedTextIsNotAMap) {
+  const fs::path file = tempDir() / "text.slammap";
+  compress("timestamp tx ty tz qx qy qz qw\n1.0 0 0 0 0 0 0 1\n", file);
+  const std::string msg = expectLoadError(file);
+  EXPECT_NE(msg.find("text.slammap: not a .slammap file (its data is not an MRPT archive)"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find("parsing typed object"), std::string::npos) << msg;
+}

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include <mrpt/config/CConfigFileBase.h>
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/dnn.hpp>
 #include <opencv2/dnn/layer.details.hpp>
 #include <opencv2/imgproc.hpp>
@@ -109,10 +110,34 @@ SemanticNetwork::SemanticNetwork(SemanticNetworkParams params) : impl_(std::make
   classMap_ = params_.classMap == "cityscapes" ? SemanticClassMap::cityscapes()
                                                : SemanticClassMap::loadFromFile(params_.classMap);
   registerEnetUpsampleLayer();
+  // Each file is checked on its own, so the message names the one at fault: an empty file (OpenCV would load an
+  // empty caffemodel and fail only at the first frame, and say `model_proto.has_graph()` for an empty ONNX file),
+  // then the description alone (a cut prototxt was blamed on the weights). OpenCV's own log lines are kept quiet
+  // meanwhile: the exception carries the reason.
+  for (const auto& [file, what] : {std::pair{params_.model, "network model"}, std::pair{params_.config, "network description"}}) {
+    std::error_code ec;
+    if (!file.empty() && std::filesystem::file_size(file, ec) == 0 && !ec)
+      throw Error(file.string() + ": empty file (0 bytes): not a " + what + " (framework " +
+                  (params_.framework.empty() ? std::string("from the file extensions") : params_.framework) + ")");
+  }
+  const auto logLevel = cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+  struct RestoreLogLevel {
+    cv::utils::logging::LogLevel level;
+    ~RestoreLogLevel() { cv::utils::logging::setLogLevel(level); }
+  } restore{logLevel};
+  const bool caffe = params_.framework == "caffe" || (params_.framework.empty() && params_.config.extension() == ".prototxt");
+  if (caffe && !params_.config.empty()) {
+    try {
+      cv::dnn::readNetFromCaffe(params_.config.string());
+    } catch (const cv::Exception& e) {
+      throw Error(params_.config.string() + ": OpenCV DNN cannot read the network description: " +
+                  oneLineMessage(e.msg));
+    }
+  }
   try {
     impl_->net = cv::dnn::readNet(params_.model.string(), params_.config.string(), params_.framework);
   } catch (const cv::Exception& e) {
-    throw Error(params_.model.string() + ": OpenCV DNN cannot load the network: " + e.msg);
+    throw Error(params_.model.string() + ": OpenCV DNN cannot load the network: " + oneLineMessage(e.msg));
   }
   if (impl_->net.empty()) throw Error(params_.model.string() + ": OpenCV DNN loaded an empty network");
   impl_->net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);

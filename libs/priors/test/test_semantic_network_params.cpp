@@ -57,3 +57,45 @@ TEST(SemanticNetworkParams, ReadStrictly) {
   EXPECT_EQ(p.model, dir / "w.caffemodel");
   fs::remove_all(dir);
 }
+
+namespace {
+std::string networkError(const SemanticNetworkParams& p) {
+  try {
+    SemanticNetwork net(p);
+  } catch (const pslam::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+// Reliability (doc/reliability.md): a truncated prototxt was blamed on the caffemodel, an empty caffemodel failed
+// only at frame 0 (with OpenCV's log lines), an empty ONNX file said `model_proto.has_graph()`. Each file is named
+// with what is wrong with it, when the network is made.
+TEST(SemanticNetwork, BadModelFilesAreNamedWithTheReason) {
+  const fs::path dir = fs::temp_directory_path() / ("pslam_semantic_network_files_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "empty.caffemodel");
+  std::ofstream(dir / "empty.onnx");
+  std::ofstream(dir / "some.caffemodel") << "not really weights, but not empty either";
+  std::ofstream(dir / "cut.prototxt") << "name: \"ENet\"\nlayer {\n  name: \"data\"\n  type: \"Inp";
+  std::ofstream(dir / "ok.prototxt") << "name: \"tiny\"\ninput: \"data\"\ninput_dim: 1\ninput_dim: 3\ninput_dim: 8\n"
+                                        "input_dim: 8\n";
+  SemanticNetworkParams p;
+  p.framework = "caffe";
+  p.model = dir / "empty.caffemodel";
+  p.config = dir / "ok.prototxt";
+  std::string e = networkError(p);
+  EXPECT_NE(e.find((dir / "empty.caffemodel").string() + ": empty file (0 bytes): not a network model (framework caffe)"), std::string::npos) << e;
+  p.model = dir / "some.caffemodel";
+  p.config = dir / "cut.prototxt";
+  e = networkError(p);
+  EXPECT_EQ(e.rfind((dir / "cut.prototxt").string() + ": OpenCV DNN cannot read the network description", 0), 0u) << e;
+  p.framework = "onnx";
+  p.model = dir / "empty.onnx";
+  p.config.clear();
+  e = networkError(p);
+  EXPECT_NE(e.find((dir / "empty.onnx").string() + ": empty file (0 bytes): not a network model (framework onnx)"), std::string::npos) << e;
+  EXPECT_EQ(e.find("has_graph"), std::string::npos) << e;
+  fs::remove_all(dir);
+}

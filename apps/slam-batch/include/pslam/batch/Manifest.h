@@ -87,4 +87,10 @@ Manifest loadManifest(const std::filesystem::path& file, const std::filesystem::
 /// 64-bit FNV-1a of `text` as 16 lowercase hex digits (a change detector, not a cryptographic hash).
 std::string fnv1aHex(const std::string& text);
 
+/// Every file a manifest reads (itself, slam_run, each dataset's rawlog with its images folder, ground truth and
+/// config, each variant's config): what no output of slam-batch may replace.
+std::vector<std::filesystem::path> manifestInputs(const Manifest& m);
+/// The files `collect` writes: results.csv, results.json, summary.md and ate_<dataset>.png under the output.
+std::vector<std::filesystem::path> collectOutputs(const Manifest& m);
+
 }  // namespace pslam::batch

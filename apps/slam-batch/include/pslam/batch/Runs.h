@@ -8,6 +8,7 @@
 // report.json), config.ini (the effective configuration), log.txt (slam-run's output) and run.json.
 #include <csignal>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <sys/types.h>
@@ -28,25 +29,35 @@ struct RunRecord {
   double wallSeconds = 0, cpuSeconds = 0;  ///< of the slam-run process (wait4's rusage)
   std::string host;
   std::vector<std::string> command;
+  /// ok: the files of the run folder and their sizes in bytes when it was recorded (run.json and the files the
+  /// record vouches for); a run is done only while they are there with these sizes.
+  std::map<std::string, std::uintmax_t> outputs;
   nlohmann::json toJson() const;
   static RunRecord fromJson(const nlohmann::json& j);
 };
 
 enum class RunState {
   Pending,  ///< no run folder
-  Done,     ///< status ok with the current hash
+  Done,     ///< status ok with the current hash, and its outputs there as recorded
   Failed,   ///< status failed with the current hash (run again by `run` and `submit`)
-  Stale,    ///< a record of another configuration or input (run again)
+  Stale,    ///< a record of another configuration or input, or outputs missing or changed (run again)
 };
 const char* toString(RunState s);
 
-/// The state of a run from its folder; `record` receives run.json when there is one. Throws pslam::Error
+/// The state of a run from its folder; `record` receives run.json when there is one (for a stale run whose
+/// outputs do not match it, its `error` says which). Throws pslam::Error
 /// naming the folder when it exists but is not a run folder (no run.json, or an unreadable one): slam-batch
 /// never replaces what it did not write.
 RunState runState(const Manifest& m, const RunSpec& run, RunRecord* record = nullptr);
 
 /// The runs `run` and `submit` have to execute: pending, failed and stale ones.
 std::vector<const RunSpec*> runsToDo(const Manifest& m);
+
+/// Temporary folders of runs (`.seed-<s>.tmp-<pid>`, `.seed-<s>.old-<pid>`) whose process has ended without
+/// removing them (kill -9, a crash, a power cut): of this host (their `.owner` file), with no process of that pid.
+std::vector<std::filesystem::path> staleTemporaries(const Manifest& m);
+/// Removes staleTemporaries(m); returns what it removed. `run` calls it under its lock of the output folder.
+std::vector<std::filesystem::path> removeStaleTemporaries(const Manifest& m);
 
 /// The slam-run executable of a manifest: its `slam_run`, else the slam-run next to this executable.
 std::filesystem::path slamRunExecutable(const Manifest& m);
@@ -57,7 +68,9 @@ std::filesystem::path selfExecutable();
 class RunExecution {
  public:
   /// Creates the temporary folder, writes config.ini and starts slam-run (output into log.txt). Throws
-  /// pslam::Error when the folder cannot be created or the process not started.
+  /// pslam::Error when the folder cannot be created or the process not started, and then leaves no temporary.
+  /// The child gets SIGTERM when this process dies, however it dies (PR_SET_PDEATHSIG): no orphaned slam-run
+  /// goes on writing into a folder nobody will rename.
   RunExecution(const Manifest& m, const RunSpec& run);
   ~RunExecution();  ///< removes the temporary folder if not finished
   RunExecution(const RunExecution&) = delete;
@@ -75,6 +88,7 @@ class RunExecution {
   void markReaped() { pid_ = -1; }
 
  private:
+  void start();  ///< writes the run's files and starts the child
   const Manifest* manifest_;
   const RunSpec* run_;
   std::filesystem::path temp_, final_;

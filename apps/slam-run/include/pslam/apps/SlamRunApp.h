@@ -36,6 +36,11 @@ struct SlamRunOptions {
   /// Hand each frame to SLAM no earlier than its timestamp says (relative to the first processed frame), as a live
   /// camera does; a frame whose time has passed goes at once (none is dropped). For the threaded mode's live use.
   bool realtime = false;
+  /// realtime: the longest wait for one frame [s]. A longer gap between stamps (a clock jump, a pause in the
+  /// recording) is cut to this, counted and named in a warning: a stamp 1e6 s ahead must not stall the run.
+  double realtimeMaxWait = 5.0;
+  /// Frames whose stamps go back or repeat are read in stamp order, with a warning (default: an error).
+  bool sortStamps = false;
   bool progress = true;
   std::filesystem::path mapIn;  ///< start from this saved map (empty: initialize a new one)
   bool localization = false;    ///< with mapIn: the map stays fixed, frames are only localized in it
@@ -53,6 +58,10 @@ struct SlamRunSummary {
   /// realtime: frames handed over after their time (tracking fell behind the camera) and the largest delay.
   std::size_t framesLate = 0;
   double maxLatenessSeconds = 0.0;
+  /// realtime: waits cut to realtimeMaxWait, and the stamp gap of the first of them.
+  std::size_t waitsCut = 0;
+  /// Warnings for the user, one line each naming the rawlog (realtime waits cut, frames read in stamp order).
+  std::vector<std::string> warnings;
   /// Map reuse: the run started from a saved map (of loadedKeyFrames keyframes), localization only or not.
   bool mapLoaded = false, localization = false;
   std::size_t loadedKeyFrames = 0, loadedMapPoints = 0;

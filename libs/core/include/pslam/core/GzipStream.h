@@ -59,10 +59,12 @@ class GzipInputStream : public mrpt::io::CStream {
 };
 
 /// Reads `path` once to its end and verifies it (no-op for an uncompressed file): throws pslam::Error
-/// "<file>: <reason>" (as GzipInputStream::Read) on any error. Readers call it before they interpret any data,
-/// so that data a corrupt gzip stream would deliver before its CRC-32 is checked at the end (garbage sizes and
-/// counts) never reaches a deserializer. Streams with a fixed buffer; costs one decompression of the file.
-void verifyGzipFile(const std::filesystem::path& path);
+/// "<file>: <reason>" (as GzipInputStream::Read) on any error, and on bytes after the last gzip member (which
+/// zlib would ignore). Readers call it before they interpret any data, so that data a corrupt gzip stream would
+/// deliver before its CRC-32 is checked at the end (garbage sizes and counts) never reaches a deserializer.
+/// Returns the length of the data (decompressed; the file's size for an uncompressed file), against which
+/// readers check the sizes an archive declares. Streams with fixed buffers; costs one decompression of the file.
+std::uint64_t verifyGzipFile(const std::filesystem::path& path);
 
 /// Gzip-compressed writing of MRPT archives (maps) that uses more than one core: the bytes written are cut into
 /// blocks of `blockBytes`, and each block becomes one gzip member (RFC 1952 allows several; zlib's readers,

@@ -46,7 +46,9 @@
 //
 // Files. loadConfigFile() (or loadSectionsFromFile() / loadSectionFromFile()) is how every tool reads its ini:
 // readConfigText() checks the file's structure (checkIniSyntax(): keys outside a section, lines that are not
-// `key = value`, a key or section given twice are errors `<file>:<line>: ...`), applyOverrides() applies
+// `key = value`, a key or section given twice are errors `<file>:<line>: ...`) and resolves `include = <file>`
+// (one line before the first section; the named file, relative to this one, is read first and this file's keys
+// replace its keys one by one), applyOverrides() applies
 // `Section.key=value` texts, unknown sections are rejected, and withSource() puts the file name (or the override
 // text) in front of every error: `config/slam/kitti.ini: [Tracking] ...`. Command-line numbers are checked with
 // the same parsing and rules by cliCheck() (CLI11 Option::check).

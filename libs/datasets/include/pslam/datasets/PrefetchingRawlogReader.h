@@ -20,9 +20,11 @@ class PrefetchingRawlogReader {
   /// Opens the rawlog (errors as RawlogReader's constructor) and starts reading up to `capacity` (>= 1) frames
   /// ahead, decoding `channels` besides CAMERA.
   explicit PrefetchingRawlogReader(std::filesystem::path rawlogPath, std::size_t capacity = 3,
-                                   RawlogChannels channels = {});
+                                   RawlogChannels channels = {}, StampOrder order = StampOrder::strict);
   /// Stops the reading thread (stop()).
   ~PrefetchingRawlogReader();
+  /// RawlogReader::warnings() (StampOrder::sort: what it reordered; known when the reader is made).
+  const std::vector<std::string>& warnings() const { return reader_.warnings(); }
   PrefetchingRawlogReader(const PrefetchingRawlogReader&) = delete;
   PrefetchingRawlogReader& operator=(const PrefetchingRawlogReader&) = delete;
 

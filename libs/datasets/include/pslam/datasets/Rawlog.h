@@ -98,13 +98,20 @@ struct RawlogChannels {
   bool normals = true;
 };
 
+/// The order of the frames' stamps. strict: each frame's stamp must be after the previous one's (a stamp going
+/// back or repeated is an error naming the frame). sort: the frames' observations are read first and given in
+/// stamp order (repeated stamps in the rawlog's order), with a warning (warnings()); costs the memory of every
+/// observation (images stay in their files).
+enum class StampOrder { strict, sort };
+
 /// Streams frames from a rawlog that follows the contract. Images are loaded one frame at a time. The gzip
 /// stream is verified to its end (pslam::GzipInputStream): corrupt or cut data is an error naming the file and
 /// the frame, never the end of the rawlog.
 class RawlogReader {
  public:
   /// Throws pslam::Error if the file is missing or cannot be opened.
-  explicit RawlogReader(std::filesystem::path rawlogPath, RawlogChannels channels = {});
+  explicit RawlogReader(std::filesystem::path rawlogPath, RawlogChannels channels = {},
+                        StampOrder order = StampOrder::strict);
   ~RawlogReader();
   RawlogReader(const RawlogReader&) = delete;
   RawlogReader& operator=(const RawlogReader&) = delete;
@@ -114,6 +121,8 @@ class RawlogReader {
   bool next(Frame& frame);
   const std::filesystem::path& path() const;
   const std::filesystem::path& imagesDir() const;
+  /// What StampOrder::sort changed, one line each naming the file (empty otherwise).
+  const std::vector<std::string>& warnings() const;
 
   /// Counts the frames (reads and verifies the whole archive without loading the images).
   static std::size_t countFrames(const std::filesystem::path& rawlogPath);

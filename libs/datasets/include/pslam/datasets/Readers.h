@@ -49,10 +49,11 @@ struct IclOptions {
   double rate = 30.0;             ///< Hz; ICL-NUIM frames carry ids, not times
   bool reflectPoses = true;       ///< convert the y-up renderer poses to the top-down images (S T S)
   bool useDepth = true;
-  std::filesystem::path posesFile;  ///< empty = the single *.gt.freiburg in the folder
+  std::filesystem::path posesFile;  ///< empty = the single *.gt.freiburg in the folder, else groundtruth.txt
 };
-/// ICL-NUIM, TUM-compatible release: associations.txt ("id depth/id.png id rgb/id.png") and
-/// <name>.gt.freiburg (TUM lines whose first column is the frame id). Depth units 1/5000 m.
+/// ICL-NUIM, TUM-compatible release: associations.txt ("id depth/id.png id rgb/id.png") or, without depth, rgb.txt
+/// ("id rgb/id.png"), and <name>.gt.freiburg or groundtruth.txt (TUM lines whose first column is the frame id).
+/// Depth units 1/5000 m.
 DatasetIndex indexIclNuim(const std::filesystem::path& root, const IclOptions& opt);
 
 struct KittiOptions {
