@@ -80,11 +80,12 @@ if [[ $SCOPE == ci ]]; then
   # The libraries that parse what users hand us (rawlogs, images, maps, vocabularies, trajectories, ini files) and their
   # unit tests, the rawlog and map fuzz tests included: where the map loader's undefined behaviour was found.
   # Configuring only these components keeps the build to a fraction of the whole (doc/reliability-config.md).
-  # features is configured because places (the vocabulary reader) and map link it; its own tests (ORB
-  # extraction, matching: no file input) stay out of this scope.
-  COMPONENTS="core;datasets;eval;features;places;map"
+  # features and geometry are configured because places (the vocabulary reader) and map link them (map holds
+  # geometry::PinholeCamera); their own tests (ORB extraction, matching, two-view geometry: no file input) stay
+  # out of this scope.
+  COMPONENTS="core;datasets;eval;geometry;features;places;map"
   LABELS='^unit$'
-  EXCLUDE='^features_'
+  EXCLUDE='^(features|geometry)_'
 else
   COMPONENTS=""
   # Labels unit and e2e, without external_consumer (it installs the build and compiles a consumer project
