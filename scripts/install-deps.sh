@@ -12,6 +12,8 @@ PKGS=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   nlohmann-json3-dev libcli11-dev
   libyaml-cpp-dev
+  # the Python module priorslam (python/, doc/python.md) and its tests; OpenCV and matplotlib for its examples
+  python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-opencv python3-matplotlib
   # scripts/slurm-local.sh: private one-node Slurm cluster for tests
   slurmctld slurmd slurm-client munge
 )

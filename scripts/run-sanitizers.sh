@@ -39,7 +39,7 @@ if [[ $SCOPE == thread ]]; then
   start=$(date +%s)
   cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Tsan -DCMAKE_CXX_FLAGS_TSAN="$FLAGS" \
     -DCMAKE_EXE_LINKER_FLAGS_TSAN=-fsanitize=thread -DCMAKE_SHARED_LINKER_FLAGS_TSAN=-fsanitize=thread \
-    -DPRIORSLAM_BUILD_BENCHMARKS=OFF -DPRIORSLAM_UNITY_BUILD=OFF "${launcher[@]}" >/dev/null
+    -DPRIORSLAM_BUILD_BENCHMARKS=OFF -DPRIORSLAM_UNITY_BUILD=OFF -DPRIORSLAM_PYTHON=OFF "${launcher[@]}" >/dev/null
   cmake --build "$BUILD_DIR" -j"$JOBS" --target test_slam_e2e test_local_mapper test_rawlog \
     test_global_ba_writeback test_places_e2e features_test_orb_extractor test_outputs
   built=$(date +%s)
@@ -96,12 +96,13 @@ else
 fi
 
 start=$(date +%s)
+# No Python module: a sanitized extension cannot be loaded by an interpreter built without the sanitizer runtime.
 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Sanitize \
   -DCMAKE_CXX_FLAGS_SANITIZE="$FLAGS" \
   -DCMAKE_EXE_LINKER_FLAGS_SANITIZE="$LINK_FLAGS" \
   -DCMAKE_SHARED_LINKER_FLAGS_SANITIZE="$LINK_FLAGS" \
   -DPRIORSLAM_COMPONENTS="$COMPONENTS" \
-  -DPRIORSLAM_BUILD_BENCHMARKS=OFF -DPRIORSLAM_UNITY_BUILD=OFF "${launcher[@]}" >/dev/null
+  -DPRIORSLAM_BUILD_BENCHMARKS=OFF -DPRIORSLAM_UNITY_BUILD=OFF -DPRIORSLAM_PYTHON=OFF "${launcher[@]}" >/dev/null
 
 mapfile -t tests < <(ctest --test-dir "$BUILD_DIR" -N -L "$LABELS" -E "$EXCLUDE" | sed -n 's/^ *Test *#[0-9]*: //p')
 [ "${#tests[@]}" -gt 0 ] || { echo "run-sanitizers: no tests found" >&2; exit 1; }

@@ -4,5 +4,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
-bash scripts/build.sh
+bash scripts/build.sh -DPRIORSLAM_PYTHON=ON  # the Python module and its pytest suite are part of the tests
 ctest --test-dir "${BUILD_DIR:-build}" --output-on-failure -j2

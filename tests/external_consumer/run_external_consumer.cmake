@@ -3,10 +3,12 @@
 # (find_package(priorslam CONFIG)), renders a short synthetic rawlog with the *installed* slam-synth and runs
 # minimal_slam on it with the installed config/slam/synthetic.ini. Checks: exit code 0, one output line per
 # frame, a `summary` line, the map file. Then runs the installed slam-run with the installed config from another
-# folder (the config names the installed default vocabulary relative to itself): a trajectory and a map.
+# folder (the config names the installed default vocabulary relative to itself): a trajectory and a map. Then, with
+# the Python module, imports the installed package in a clean environment and runs it on the same frames.
 #
 # Variables (-D): BUILD_DIR, SOURCE_DIR, WORK_DIR; optional CONSUMER_SOURCE (examples/minimal_slam.cpp),
-# FRAMES (40), GENERATOR, COMPILER_LAUNCHER, CXX_COMPILER, KEEP (keep WORK_DIR).
+# FRAMES (40), GENERATOR, COMPILER_LAUNCHER, CXX_COMPILER, KEEP (keep WORK_DIR); PYTHON_EXECUTABLE,
+# PYTHON_INSTALL_DIR and VERSION when the build has the Python module (step 6).
 foreach(v BUILD_DIR SOURCE_DIR WORK_DIR)
   if(NOT DEFINED ${v})
     message(FATAL_ERROR "run_external_consumer.cmake: -D${v}=... is required")
@@ -104,6 +106,44 @@ foreach(f trajectory.txt map.slammap report.json)
     message(FATAL_ERROR "the installed slam-run wrote no run/${f}")
   endif()
 endforeach()
+
+# 6. The installed Python package (when the build has it), from a clean environment: only PYTHONPATH names the
+# prefix. It imports, tells its version, and its System on the installed config writes the trajectory the installed
+# slam-run wrote above, byte for byte.
+if(PYTHON_EXECUTABLE)
+  set(site "${prefix}/${PYTHON_INSTALL_DIR}")
+  file(GLOB module "${site}/priorslam/_core*.so")
+  foreach(f __init__.py eval.py __init__.pyi eval.pyi py.typed)
+    if(NOT EXISTS "${site}/priorslam/${f}")
+      message(FATAL_ERROR "the installed Python package lacks ${f}")
+    endif()
+  endforeach()
+  if(NOT module)
+    message(FATAL_ERROR "no extension module in ${site}/priorslam")
+  endif()
+  set(RUN_IN "${WORK_DIR}/elsewhere")
+  run("import the installed priorslam" /usr/bin/env -i "PYTHONPATH=${site}" "${PYTHON_EXECUTABLE}" -c
+      "import priorslam; print(priorslam.__version__, priorslam.__file__)")
+  string(STRIP "${RUN_OUTPUT}" imported)
+  if(NOT imported MATCHES "^${VERSION} ${site}/priorslam/__init__.py$")
+    message(FATAL_ERROR "expected version ${VERSION} from ${site}, got: ${imported}")
+  endif()
+  set(script "import priorslam, sys\n"
+             "slam = priorslam.System(sys.argv[1])\n"
+             "for f in priorslam.Rawlog(sys.argv[2], channels=slam.channels_used()):\n"
+             "    slam.track_frame(f)\n"
+             "slam.save_trajectory(sys.argv[3], comment='slam-run: every tracked frame, T_world_cam')\n")
+  file(WRITE "${WORK_DIR}/run.py" "${script}")
+  run("the installed priorslam on ${FRAMES} frames" /usr/bin/env -i "PYTHONPATH=${site}" "${PYTHON_EXECUTABLE}"
+      "${WORK_DIR}/run.py" "${installed_config}" "${data}/room.rawlog" "${WORK_DIR}/python_trajectory.txt")
+  unset(RUN_IN)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files "${WORK_DIR}/python_trajectory.txt"
+                  "${WORK_DIR}/elsewhere/run/trajectory.txt" RESULT_VARIABLE differ)
+  if(differ)
+    message(FATAL_ERROR "the installed Python package's trajectory differs from the installed slam-run's")
+  endif()
+  message(STATUS "installed Python package ${imported}: trajectory identical to slam-run's")
+endif()
 
 if(NOT KEEP)
   file(REMOVE_RECURSE "${WORK_DIR}")
