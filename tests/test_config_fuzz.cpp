@@ -258,6 +258,11 @@ TEST(ConfigFuzz, EveryMutantLoadsOrGivesAnErrorNamingTheFile) {
     // The mutant keeps the file's name and folder name (the reader is chosen by them), in a folder of its own.
     const fs::path mutantDir = dir / original.parent_path().filename();
     fs::create_directories(mutantDir);
+    // Its siblings as shipped beside it: a file may `include =` one of them (structure_network.ini includes
+    // structure.ini), which must not be an earlier file's last mutant.
+    for (const auto& e : fs::directory_iterator(original.parent_path()))
+      if (e.path().extension() == ".ini")
+        fs::copy_file(e.path(), mutantDir / e.path().filename(), fs::copy_options::overwrite_existing);
     const fs::path mutantPath = mutantDir / original.filename();
     const std::string text = readText(original);
     std::mt19937 rng(20240601u + static_cast<unsigned>(f));

@@ -123,12 +123,12 @@ if(PYTHON_EXECUTABLE)
   endif()
   set(RUN_IN "${WORK_DIR}/elsewhere")
   run("import the installed priorslam" /usr/bin/env -i "PYTHONPATH=${site}" "${PYTHON_EXECUTABLE}" -c
-      "import priorslam; print(priorslam.__version__, priorslam.__file__)")
+      "import priorslam\nprint(priorslam.__version__, priorslam.__file__)")  # no ';': run() forwards a list
   string(STRIP "${RUN_OUTPUT}" imported)
   if(NOT imported MATCHES "^${VERSION} ${site}/priorslam/__init__.py$")
     message(FATAL_ERROR "expected version ${VERSION} from ${site}, got: ${imported}")
   endif()
-  set(script "import priorslam, sys\n"
+  string(CONCAT script "import priorslam, sys\n"
              "slam = priorslam.System(sys.argv[1])\n"
              "for f in priorslam.Rawlog(sys.argv[2], channels=slam.channels_used()):\n"
              "    slam.track_frame(f)\n"

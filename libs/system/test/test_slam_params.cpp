@@ -178,8 +178,9 @@ TEST(SlamParams, EveryShippedConfigLoads) {
     EXPECT_EQ(p.pointModel.policy.model, landmarks::MapPointModel::Heuristic);
     EXPECT_EQ(p.mapping.fusionDistanceBand, 0.0);
     EXPECT_EQ(p.system.poseSolver, "full6dof");
-    // The chapter-4 configuration initializes from the Manhattan frames (§4.4.1); every other one with H/F.
-    const bool structure = f.filename() == "structure.ini";
+    // The chapter-4 configurations (structure.ini and structure_network.ini, which includes it) initialize from
+    // the Manhattan frames (§4.4.1); every other one with H/F.
+    const bool structure = f.filename().string().rfind("structure", 0) == 0;
     EXPECT_EQ(p.system.initializer, structure ? "manhattan" : "twoView");
     EXPECT_EQ(p.manhattan.enabled, structure);
     EXPECT_FALSE(p.system.threaded);
