@@ -81,8 +81,8 @@ if [[ $SCOPE == ci ]]; then
   # unit tests, the rawlog and map fuzz tests included: where the map loader's undefined behaviour was found.
   # Configuring only these components keeps the build to a fraction of the whole (doc/reliability-config.md).
   # features and geometry are configured because places (the vocabulary reader) and map link them (map holds
-  # geometry::PinholeCamera); their own tests (ORB extraction, matching, two-view geometry: no file input) stay
-  # out of this scope.
+  # geometry::PinholeCamera, built as priorslam::camera: only that file of libs/geometry is compiled here); their
+  # own tests (ORB extraction, matching, two-view geometry: no file input) stay out of this scope.
   COMPONENTS="core;datasets;eval;geometry;features;places;map"
   LABELS='^unit$'
   EXCLUDE='^(features|geometry)_'
